@@ -1,0 +1,202 @@
+//! The compiled level: Sightline's in-memory data model, written to disk as `.slvl`.
+//!
+//! # Conventions
+//! - Coordinates and plane distances are `f32` world units (the compiler works in `f64` and
+//!   converts only when it emits a level).
+//! - A node's `children[0]` is the **front** side of its plane (`normal · p - dist >= 0`) and
+//!   `children[1]` the back. A child `c >= 0` is node `c`; `c < 0` is leaf `-(c + 1)` (as Quake).
+//! - Leaves with [`Contents::Solid`] have `cluster == -1`; every other leaf belongs to exactly one
+//!   cluster `0..num_clusters`. Without detail brushes each non-solid leaf is its own cluster.
+//! - Portal `i` joins `leaves[0]`, on the **back** of its plane, and `leaves[1]`, on the front:
+//!   the plane's normal points from `leaves[0]` into `leaves[1]`. Winding points are clockwise
+//!   seen from the front.
+//! - PVS rows are per cluster: row `c` has one bit per cluster (bit `j` = byte `j >> 3`, bit
+//!   `j & 7`, least significant first), stored Quake-RLE compressed ([`crate::rle`]); `pvs_offsets[c]`
+//!   is the byte offset of row `c` in `pvs_data`. An empty `pvs_offsets` means "no vis: everything
+//!   visible".
+
+use serde::{Deserialize, Serialize};
+
+/// What fills a leaf. The numeric values are Quake's `CONTENTS_*` codes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[repr(i32)]
+pub enum Contents {
+    /// Open air.
+    Empty = -1,
+    /// Solid rock: not part of any cluster.
+    Solid = -2,
+    /// Water (see-through).
+    Water = -3,
+    /// Slime (see-through).
+    Slime = -4,
+    /// Lava (see-through).
+    Lava = -5,
+    /// Sky (blocks nothing for vis purposes, drawn as sky).
+    Sky = -6,
+}
+
+impl Contents {
+    /// From Quake's code; `None` for an unknown code.
+    pub fn from_code(code: i32) -> Option<Self> {
+        Some(match code {
+            -1 => Self::Empty,
+            -2 => Self::Solid,
+            -3 => Self::Water,
+            -4 => Self::Slime,
+            -5 => Self::Lava,
+            -6 => Self::Sky,
+            _ => return None,
+        })
+    }
+
+    /// Quake's code.
+    pub fn code(self) -> i32 {
+        self as i32
+    }
+
+    /// True for every contents except solid: sight passes through it.
+    pub fn is_open(self) -> bool {
+        self != Self::Solid
+    }
+}
+
+/// A plane as stored: unit normal and distance.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LevelPlane {
+    /// Unit normal (front side is where it points).
+    pub normal: [f32; 3],
+    /// `normal · p` for points on the plane.
+    pub dist: f32,
+}
+
+/// An interior node of the BSP tree.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Node {
+    /// Index into [`Level::planes`].
+    pub plane: u32,
+    /// Front child then back child; see the module docs for the encoding.
+    pub children: [i32; 2],
+    /// Bounds of everything below this node.
+    pub mins: [f32; 3],
+    /// Bounds of everything below this node.
+    pub maxs: [f32; 3],
+}
+
+/// A convex cell of the tree.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Leaf {
+    /// What fills it.
+    pub contents: Contents,
+    /// Cluster index, or -1 for solid leaves.
+    pub cluster: i32,
+    /// Bounds of the cell (clipped to the world bounds).
+    pub mins: [f32; 3],
+    /// Bounds of the cell.
+    pub maxs: [f32; 3],
+    /// First entry in [`Level::leaf_faces`].
+    pub first_face: u32,
+    /// Number of entries in [`Level::leaf_faces`].
+    pub num_faces: u32,
+}
+
+/// A drawable polygon.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Face {
+    /// Index into [`Level::planes`]; the face is seen from the plane's front.
+    pub plane: u32,
+    /// First corner in [`Level::vertices`].
+    pub first_vertex: u32,
+    /// Number of corners (at least 3), clockwise seen from the front.
+    pub num_vertices: u32,
+    /// Index into [`Level::textures`].
+    pub texture: u32,
+}
+
+/// An opening between two non-solid leaves.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Portal {
+    /// Back-side leaf then front-side leaf of `plane`.
+    pub leaves: [u32; 2],
+    /// Index into [`Level::planes`].
+    pub plane: u32,
+    /// First corner in [`Level::vertices`].
+    pub first_vertex: u32,
+    /// Number of corners.
+    pub num_vertices: u32,
+}
+
+/// A brush model: model 0 is the world, the others are brush entities (doors, platforms...).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Model {
+    /// Root of the model's tree, encoded like a node child.
+    pub head_node: i32,
+    /// Bounds.
+    pub mins: [f32; 3],
+    /// Bounds.
+    pub maxs: [f32; 3],
+    /// First face in [`Level::faces`].
+    pub first_face: u32,
+    /// Number of faces.
+    pub num_faces: u32,
+}
+
+/// Everything a compiled level holds. Indices are validated when a level is read from disk, so
+/// code holding a `Level` from [`crate::slvl::read`] may index without checks.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Level {
+    /// The entity text, Quake `.map` syntax without brushes.
+    pub entities: String,
+    /// Texture names; faces refer to them by index.
+    pub textures: Vec<String>,
+    /// Planes.
+    pub planes: Vec<LevelPlane>,
+    /// Interior nodes; the world's root is `models[0].head_node`.
+    pub nodes: Vec<Node>,
+    /// Leaves.
+    pub leaves: Vec<Leaf>,
+    /// Face indices listed by leaves.
+    pub leaf_faces: Vec<u32>,
+    /// Faces.
+    pub faces: Vec<Face>,
+    /// Corners of faces and portals.
+    pub vertices: Vec<[f32; 3]>,
+    /// Portals between non-solid leaves.
+    pub portals: Vec<Portal>,
+    /// Brush models.
+    pub models: Vec<Model>,
+    /// Number of clusters (PVS row length in bits).
+    pub num_clusters: u32,
+    /// Byte offset of each cluster's compressed row in `pvs_data`; empty when vis was not run.
+    pub pvs_offsets: Vec<u32>,
+    /// Concatenated Quake-RLE rows.
+    pub pvs_data: Vec<u8>,
+    /// GVS view cells (empty unless `sightline gvs` stored its result in the level).
+    pub gvs_cells: Vec<GvsCell>,
+    /// Face indices listed by GVS cells.
+    pub gvs_faces: Vec<u32>,
+}
+
+/// A box view cell with the faces guided visibility sampling found visible from it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GvsCell {
+    /// Bounds of the view cell.
+    pub mins: [f32; 3],
+    /// Bounds of the view cell.
+    pub maxs: [f32; 3],
+    /// First entry in [`Level::gvs_faces`].
+    pub first_face: u32,
+    /// Number of entries in [`Level::gvs_faces`].
+    pub num_faces: u32,
+}
+
+impl Level {
+    /// Bytes in one uncompressed PVS row.
+    pub fn row_bytes(&self) -> usize {
+        (self.num_clusters as usize).div_ceil(8)
+    }
+
+    /// True when the level carries a PVS.
+    pub fn has_vis(&self) -> bool {
+        !self.pvs_offsets.is_empty()
+    }
+}

@@ -1,0 +1,12 @@
+//! Sightline's shared vocabulary: geometry primitives, the level data model, and every on-disk
+//! format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, and `.slvl`).
+//!
+//! Readers never panic on hostile input and never allocate more than the input can justify: every
+//! count read from a file is checked against the bytes that remain before anything is allocated.
+//! Text formats report `file:line:col`, binary formats a byte offset.
+
+pub mod geom;
+pub mod level;
+
+pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
+pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};

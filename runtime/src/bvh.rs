@@ -1,0 +1,1 @@
+//! Bounding volume hierarchy over triangles for ray casting (work in progress).

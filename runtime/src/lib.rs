@@ -1,0 +1,3 @@
+//! `sightline-runtime`: load a compiled level and answer, every frame, what can be seen.
+
+pub mod bvh;

@@ -1,0 +1,31 @@
+//! Helpers shared by the integration tests in `tests/tests/`.
+
+use std::path::PathBuf;
+
+/// The workspace root.
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The bundled small maps (`maps/` in the workspace).
+pub fn bundled_maps() -> PathBuf {
+    workspace_root().join("maps")
+}
+
+/// The shared real maps: `$SIGHTLINE_MAPS`, or `../shared/maps` beside the workspace. Returns
+/// `None`, after printing why, when the folder is absent, so a test can skip its real-map part
+/// visibly rather than silently.
+pub fn shared_maps() -> Option<PathBuf> {
+    let dir = std::env::var_os("SIGHTLINE_MAPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("../shared/maps"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "note: real maps not found at {} (set SIGHTLINE_MAPS); real-map checks are not run",
+            dir.display()
+        );
+        None
+    }
+}

@@ -1,0 +1,15 @@
+//! `sightline compile` (work in progress: not wired yet).
+
+use crate::cli::Outcome;
+
+/// Arguments of `sightline compile`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input file.
+    pub input: std::path::PathBuf,
+}
+
+/// Run the command.
+pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
+    anyhow::bail!("`sightline compile` is not implemented yet")
+}

@@ -1,0 +1,9 @@
+//! One module per subcommand: its clap `Args` and its `run`.
+
+pub mod bench;
+pub mod compile;
+pub mod gvs;
+pub mod info;
+pub mod render;
+pub mod validate;
+pub mod vis;

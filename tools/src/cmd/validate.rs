@@ -1,0 +1,15 @@
+//! `sightline validate` (work in progress: not wired yet).
+
+use crate::cli::Outcome;
+
+/// Arguments of `sightline validate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input file.
+    pub input: std::path::PathBuf,
+}
+
+/// Run the command.
+pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
+    anyhow::bail!("`sightline validate` is not implemented yet")
+}
