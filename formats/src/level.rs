@@ -7,9 +7,9 @@
 //!   `children[1]` the back. A child `c >= 0` is node `c`; `c < 0` is leaf `-(c + 1)` (as Quake).
 //! - Leaves with [`Contents::Solid`] have `cluster == -1`; every other leaf belongs to exactly one
 //!   cluster `0..num_clusters`. Without detail brushes each non-solid leaf is its own cluster.
-//! - Portal `i` joins `leaves[0]`, on the **back** of its plane, and `leaves[1]`, on the front:
-//!   the plane's normal points from `leaves[0]` into `leaves[1]`. Winding points are clockwise
-//!   seen from the front.
+//! - Portal `i` joins `leaves[0]`, on the **front** of its plane, and `leaves[1]`, on the back:
+//!   the plane's normal points into `leaves[0]`, as a `.prt` winding faces into its first leaf.
+//!   Winding points are clockwise seen from the front, so the winding's own plane is `plane`.
 //! - PVS rows are per cluster: row `c` has one bit per cluster (bit `j` = byte `j >> 3`, bit
 //!   `j & 7`, least significant first), stored Quake-RLE compressed ([`crate::rle`]); `pvs_offsets[c]`
 //!   is the byte offset of row `c` in `pvs_data`. An empty `pvs_offsets` means "no vis: everything
@@ -115,7 +115,7 @@ pub struct Face {
 /// An opening between two non-solid leaves.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Portal {
-    /// Back-side leaf then front-side leaf of `plane`.
+    /// Front-side leaf then back-side leaf of `plane`.
     pub leaves: [u32; 2],
     /// Index into [`Level::planes`].
     pub plane: u32,

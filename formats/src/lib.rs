@@ -7,6 +7,8 @@
 
 pub mod geom;
 pub mod level;
+pub mod map;
+pub mod prt;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
 pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
