@@ -1,1 +1,450 @@
-//! placeholder
+//! Map → level: CSG, leafy BSP, portals, outside fill and leaks, and the emitted [`Level`].
+//!
+//! [`compile`] runs the phases in order: `csg` (brush windings, contents, face clipping), `bsp`
+//! (brush BSP of the structural world, one per submodel), `portals`, `outside` (flood from the
+//! void, leak check, fill), `emit` (level and `.prt`). Output is identical for any thread count:
+//! parallel steps collect in input order and tree building uses `rayon::join` only.
+
+pub mod brush;
+pub mod bsp;
+pub mod contents;
+pub mod csg;
+pub mod emit;
+mod load;
+pub mod mesh;
+pub mod outside;
+pub mod portals;
+pub mod vis;
+
+use std::time::Instant;
+
+use glam::DVec3;
+use sightline_formats::map::MapFile;
+use sightline_formats::prt::PortalFile;
+use sightline_formats::{Aabb, Contents, Level, PlaneSet};
+
+use crate::brush::Brush;
+use crate::outside::Seed;
+
+/// The tree's box lies this many units beyond every brush, so the void around the world is made
+/// of empty leaves the outside flood starts from.
+pub const OUTSIDE_MARGIN: f64 = 16.0;
+
+/// Spacing of pointfile points along a leak path, in units.
+pub const POINTFILE_STEP: f64 = 8.0;
+
+/// What to compile.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// A parsed `.map`.
+    Map {
+        /// The map.
+        map: MapFile,
+        /// File name for messages.
+        file: String,
+    },
+    /// A triangle mesh (from `.obj`): its triangles build a polygon BSP.
+    Mesh {
+        /// The mesh.
+        mesh: mesh::Mesh,
+        /// File name for messages.
+        file: String,
+    },
+}
+
+/// Options of [`compile`].
+#[derive(Debug, Clone, Default)]
+pub struct CompileOptions {
+    /// Worker threads (`None`: rayon's default).
+    pub threads: Option<usize>,
+    /// Return a level even when the map leaks (without filling the outside).
+    pub allow_leak: bool,
+}
+
+/// Receives progress; the CLI draws bars with it.
+pub trait Progress: Sync {
+    /// A phase starts with `total` steps.
+    fn begin(&self, phase: &str, total: u64);
+    /// `n` steps of the current phase are done.
+    fn advance(&self, n: u64);
+    /// The current phase is over.
+    fn end(&self);
+}
+
+/// A [`Progress`] that shows nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn begin(&self, _: &str, _: u64) {}
+    fn advance(&self, _: u64) {}
+    fn end(&self) {}
+}
+
+/// Time spent in one phase.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PhaseTime {
+    /// Phase name.
+    pub name: String,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Counts and times of a compile.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Stats {
+    /// Brushes in the source (all entities).
+    pub brushes: usize,
+    /// Structural world brushes that built the tree.
+    pub world_brushes: usize,
+    /// `func_detail` brushes (drawn, not in the tree).
+    pub detail_brushes: usize,
+    /// Brush entities with their own model.
+    pub submodels: usize,
+    /// Faces after CSG (all models).
+    pub csg_faces: usize,
+    /// Faces in the level.
+    pub faces: usize,
+    /// Planes (pairs counted twice).
+    pub planes: usize,
+    /// Interior nodes in the level.
+    pub nodes: usize,
+    /// Leaves in the level.
+    pub leaves: usize,
+    /// Non-solid world leaves (vis leaves).
+    pub vis_leaves: usize,
+    /// World portals between vis leaves.
+    pub portals: usize,
+    /// Clusters.
+    pub clusters: usize,
+    /// Leaves the outside fill turned solid.
+    pub filled_leaves: usize,
+    /// Phase times in order.
+    pub phases: Vec<PhaseTime>,
+    /// Things worth knowing that did not stop the compile.
+    pub warnings: Vec<String>,
+}
+
+/// A leak: an entity reaches the void.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeakReport {
+    /// Source file.
+    pub file: String,
+    /// Class of the leaking entity.
+    pub classname: String,
+    /// Its origin.
+    pub origin: DVec3,
+    /// Line of the entity in the source.
+    pub line: u32,
+    /// Points every [`POINTFILE_STEP`] units from the entity to outside the world.
+    pub path: Vec<DVec3>,
+}
+
+impl LeakReport {
+    /// What a leak is and how to find it, in one sentence.
+    pub const EXPLANATION: &'static str = "A leak is a hole in the world's outer shell through which \
+        an entity can reach the void, so the inside and outside cannot be told apart; load the \
+        pointfile in your editor and follow the line from the entity to the gap to seal.";
+
+    /// The Quake pointfile text: one `x y z` line per point.
+    pub fn pointfile(&self) -> String {
+        let mut s = String::with_capacity(self.path.len() * 24);
+        for p in &self.path {
+            s.push_str(&format!("{} {} {}\n", p.x, p.y, p.z));
+        }
+        s
+    }
+}
+
+impl std::fmt::Display for LeakReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}: leak: entity `{}` at ({} {} {}) reaches the outside of the world through {} path points",
+            self.file,
+            self.line,
+            self.classname,
+            self.origin.x,
+            self.origin.y,
+            self.origin.z,
+            self.path.len()
+        )
+    }
+}
+
+/// Why a compile failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CompileError {
+    /// The map has no entities.
+    #[error("{file}: the map has no entities (a map starts with a worldspawn entity)")]
+    NoEntities {
+        /// Source file.
+        file: String,
+    },
+    /// The first entity is not worldspawn.
+    #[error("{file}:{line}: the first entity is `{classname}`, expected `worldspawn`")]
+    NoWorldspawn {
+        /// Source file.
+        file: String,
+        /// Line of the entity.
+        line: u32,
+        /// Its class.
+        classname: String,
+    },
+    /// A brush whose planes enclose nothing, or do not close.
+    #[error("{file}:{line}: entity {entity} (`{classname}`) brush {brush}: {problem}")]
+    BadBrush {
+        /// Source file.
+        file: String,
+        /// Line of the brush.
+        line: u32,
+        /// Entity index.
+        entity: usize,
+        /// Entity class.
+        classname: String,
+        /// Brush index in the entity.
+        brush: usize,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A coordinate beyond the world limit.
+    #[error("{file}:{line}: {what} lies beyond ±{limit} units", limit = sightline_formats::geom::WORLD_LIMIT)]
+    HugeCoordinate {
+        /// Source file.
+        file: String,
+        /// Line.
+        line: u32,
+        /// What it is.
+        what: String,
+    },
+    /// Nothing to build a tree from.
+    #[error("{file}: the world has no solid brushes to build a tree from")]
+    EmptyWorld {
+        /// Source file.
+        file: String,
+    },
+    /// The mesh has no usable triangle.
+    #[error("{file}: the mesh has no triangle with an area")]
+    EmptyMesh {
+        /// Source file.
+        file: String,
+    },
+    /// The map leaks (and leaks were not allowed).
+    #[error("{0}")]
+    Leak(Box<LeakReport>),
+    /// The worker pool could not start.
+    #[error("could not start {threads} worker threads: {message}")]
+    Threads {
+        /// Requested count.
+        threads: usize,
+        /// Why.
+        message: String,
+    },
+}
+
+/// The result of a compile.
+#[derive(Debug, Clone)]
+pub struct Compiled {
+    /// The level (no PVS yet: vis fills `pvs_offsets`/`pvs_data`).
+    pub level: Level,
+    /// The world's portals for vis (PRT1, vis leaves = clusters).
+    pub prt: PortalFile,
+    /// Counts and times.
+    pub stats: Stats,
+    /// The leak, when `allow_leak` let a leaking map through.
+    pub leak: Option<LeakReport>,
+}
+
+/// Compile `source`.
+pub fn compile(
+    source: &Source,
+    opts: &CompileOptions,
+    progress: &dyn Progress,
+) -> Result<Compiled, CompileError> {
+    match opts.threads {
+        Some(threads) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.max(1))
+                .stack_size(64 << 20)
+                .build()
+                .map_err(|e| CompileError::Threads { threads, message: e.to_string() })?;
+            pool.install(|| compile_here(source, opts, progress))
+        }
+        None => compile_here(source, opts, progress),
+    }
+}
+
+struct Clock {
+    start: Instant,
+    phases: Vec<PhaseTime>,
+}
+
+impl Clock {
+    fn new() -> Self {
+        Self { start: Instant::now(), phases: Vec::new() }
+    }
+
+    fn lap(&mut self, name: &str, progress: &dyn Progress) {
+        let now = Instant::now();
+        self.phases.push(PhaseTime { name: name.to_string(), seconds: (now - self.start).as_secs_f64() });
+        self.start = now;
+        progress.end();
+    }
+}
+
+/// Everything the phases after loading need, for a map or a mesh.
+pub(crate) struct Prepared {
+    pub planes: PlaneSet,
+    pub structural: Vec<Brush>,
+    pub world_faces: Vec<csg::CsgFace>,
+    pub submodels: Vec<(Vec<Brush>, Vec<csg::CsgFace>)>,
+    pub seeds: Vec<Seed>,
+    pub entities: String,
+    pub textures: Vec<String>,
+    pub stats: Stats,
+    /// A prebuilt world tree (meshes build theirs from polygons).
+    pub tree: Option<(bsp::Tree, Aabb)>,
+    /// Fill unreachable space (maps) or keep every non-solid leaf (meshes, no entities).
+    pub fill: bool,
+}
+
+fn compile_here(source: &Source, opts: &CompileOptions, progress: &dyn Progress) -> Result<Compiled, CompileError> {
+    let mut clock = Clock::new();
+    let (file, mut prep) = match source {
+        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress)?),
+        Source::Mesh { mesh, file } => (file.as_str(), mesh::prepare(mesh, file, progress)?),
+    };
+    clock.lap("csg", progress);
+
+    progress.begin("bsp", 1 + prep.submodels.len() as u64);
+    let (tree, bounds) = match prep.tree.take() {
+        Some(t) => t,
+        None => {
+            let world = Aabb::from_points(prep.structural.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
+            if world.is_empty() {
+                return Err(CompileError::EmptyWorld { file: file.to_string() });
+            }
+            let bounds = world.expanded(OUTSIDE_MARGIN);
+            let volume = Brush::from_box(&mut prep.planes, &bounds, Contents::Empty);
+            let brushes = std::mem::take(&mut prep.structural);
+            (bsp::build(&prep.planes, brushes, volume), bounds)
+        }
+    };
+    progress.advance(1);
+    let mut sub_inputs = Vec::with_capacity(prep.submodels.len());
+    for (brushes, faces) in std::mem::take(&mut prep.submodels) {
+        let mb = Aabb::from_points(brushes.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
+        let mb = if mb.is_empty() { Aabb::new(DVec3::ZERO, DVec3::ZERO) } else { mb };
+        let volume = Brush::from_box(&mut prep.planes, &mb.expanded(OUTSIDE_MARGIN), Contents::Empty);
+        sub_inputs.push((brushes, faces, mb, volume));
+    }
+    let submodels: Vec<emit::Submodel> = sub_inputs
+        .into_iter()
+        .map(|(brushes, faces, bounds, volume)| {
+            let tree = bsp::build(&prep.planes, brushes, volume);
+            progress.advance(1);
+            emit::Submodel { tree, faces, bounds }
+        })
+        .collect();
+    clock.lap("bsp", progress);
+
+    progress.begin("portals", 1);
+    let graph = portals::build(&tree, &prep.planes, &bounds);
+    progress.advance(1);
+    clock.lap("portals", progress);
+
+    progress.begin("outside", 1);
+    let fill = outside::flood(&tree, &prep.planes, &graph, &prep.seeds, prep.fill);
+    progress.advance(1);
+    let mut leak = None;
+    if let Some((seed, points)) = &fill.leak {
+        let (classname, line) = load::entity_info(source, seed.entity);
+        let report = LeakReport {
+            file: file.to_string(),
+            classname,
+            origin: seed.point,
+            line,
+            path: outside::sample_path(points, POINTFILE_STEP),
+        };
+        if !opts.allow_leak {
+            return Err(CompileError::Leak(Box::new(report)));
+        }
+        leak = Some(report);
+    }
+    if fill.no_seed && prep.fill {
+        prep.stats.warnings.push(
+            "no entity with an origin lies in open space: only the outside was filled".to_string(),
+        );
+    }
+    clock.lap("outside", progress);
+
+    progress.begin("emit", 1);
+    let world_bounds = bounds.expanded(-OUTSIDE_MARGIN);
+    let world = emit::World {
+        tree: &tree,
+        contents: &fill.contents,
+        portals: &graph,
+        faces: &prep.world_faces,
+        bounds: world_bounds,
+    };
+    let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures);
+    progress.advance(1);
+    clock.lap("emit", progress);
+
+    let mut stats = prep.stats;
+    let level = out.level;
+    stats.planes = level.planes.len();
+    stats.nodes = level.nodes.len();
+    stats.leaves = level.leaves.len();
+    stats.vis_leaves = out.prt.num_leaves as usize;
+    stats.clusters = level.num_clusters as usize;
+    stats.portals = level.portals.len();
+    stats.faces = level.faces.len();
+    stats.filled_leaves = fill.filled;
+    stats.phases = clock.phases;
+    Ok(Compiled { level, prt: out.prt, stats, leak })
+}
+
+#[cfg(test)]
+mod scratch_real {
+    #[test]
+    fn scratch() {
+        let list = std::env::var("SCRATCH_MAPS").unwrap_or_default();
+        for path in list.split_whitespace() {
+            let text = std::fs::read_to_string(path).expect("read");
+            let map = sightline_formats::map::parse(&text, path).expect("parse");
+            let t = std::time::Instant::now();
+            let allow = std::env::var("SCRATCH_ALLOW").is_ok();
+            if let Ok(b) = std::env::var("SCRATCH_BOX") {
+                let v: Vec<f64> = b.split_whitespace().map(|t| t.parse().unwrap()).collect();
+                let bx = sightline_formats::Aabb::new(glam::DVec3::new(v[0], v[1], v[2]), glam::DVec3::new(v[3], v[4], v[5]));
+                let mut planes = sightline_formats::PlaneSet::new();
+                for (ei, e) in map.entities.iter().enumerate() { for (bi, b) in e.brushes.iter().enumerate() {
+                    let specs: Vec<_> = b.sides.iter().map(|s| crate::brush::SideSpec { plane: planes.insert(s.plane) as u32, hint: false }).collect();
+                    match crate::brush::Brush::from_planes(&planes, &specs, sightline_formats::Contents::Solid) {
+                        Ok((br, _)) => if br.bounds.intersects(&bx) { eprintln!("ent {ei} {} brush {bi} line {} {:?} {:?} tex {}", e.classname(), b.line, br.bounds.mins, br.bounds.maxs, b.sides[0].texture); },
+                        Err(err) => eprintln!("ent {ei} brush {bi} line {} {err:?}", b.line),
+                    }
+                }}
+            }
+            let r = super::compile(&super::Source::Map { map, file: path.into() }, &super::CompileOptions { allow_leak: allow, ..Default::default() }, &super::NoProgress);
+            if let Ok(c) = &r && let Some(leak) = &c.leak {
+                let l = &c.level;
+                let mut last = usize::MAX;
+                for p in &leak.path {
+                    let mut n = l.models[0].head_node;
+                    while n >= 0 { let nd = &l.nodes[n as usize]; let pl = &l.planes[nd.plane as usize];
+                        let d = pl.normal[0] as f64 * p.x + pl.normal[1] as f64 * p.y + pl.normal[2] as f64 * p.z - pl.dist as f64;
+                        n = if d >= 0.0 { nd.children[0] } else { nd.children[1] }; }
+                    let leaf = (-(n + 1)) as usize;
+                    if leaf != last { last = leaf; let lf = &l.leaves[leaf]; eprintln!("  {p} leaf {leaf} {:?} {:?} {:?} faces {}", lf.contents, lf.mins, lf.maxs, lf.num_faces); }
+                }
+            }
+            match r {
+                Ok(c) => eprintln!("{path}: {:.2}s {:?}", t.elapsed().as_secs_f64(), c.stats),
+                Err(super::CompileError::Leak(r)) => { eprintln!("{path}: LEAK {r}"); for p in r.path.iter().step_by(4) { eprintln!("  {p}"); } }
+                Err(e) => eprintln!("{path}: {:.2}s ERROR {e}", t.elapsed().as_secs_f64()),
+            }
+        }
+    }
+}

@@ -5,10 +5,17 @@
 //! count read from a file is checked against the bytes that remain before anything is allocated.
 //! Text formats report `file:line:col`, binary formats a byte offset.
 
+pub mod atomic;
+pub mod bsp;
 pub mod geom;
+mod le;
 pub mod level;
 pub mod map;
+pub mod obj;
 pub mod prt;
+pub mod rle;
+pub mod slvl;
+mod tree_check;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
 pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};

@@ -2,8 +2,31 @@
 //!
 //! Convention: the plane of a portal's winding (computed as for `.map` sides, see
 //! [`crate::geom`]) faces **into** `leaves[0]`.
+//!
+//! Layouts (whitespace, including line breaks, separates tokens; `(` and `)` may touch numbers):
+//! - `PRT1 <leaves> <portals>` then `<n> <leafA> <leafB> (x y z)…` per portal.
+//! - `PRT2 <leaves> <clusters> <portals>`, portal lines naming clusters, then per cluster its leaf
+//!   numbers terminated by `-1`.
+//! - `PRT1-AM <clusters> <portals> <leaves>`, portal lines naming clusters, then one cluster
+//!   number per leaf.
+//!
+//! The reader rejects leaf/cluster numbers out of range, windings of fewer than 3 or more than
+//! [`MAX_POINTS`] points, non-finite coordinates, leaves missing from (or listed twice in) the
+//! PRT2 cluster lists, and trailing tokens. It never allocates from a header count before checking
+//! the count against the text that remains. The writer prints floats in Rust's shortest
+//! round-trip form, so `read(write(f)) == f`.
+
+use std::fmt::Write as _;
+
+use glam::DVec3;
 
 use crate::geom::Winding;
+
+/// Largest number of points a portal winding may have (as readers in the wild cap it).
+pub const MAX_POINTS: usize = 64;
+
+/// Largest vis-leaf count accepted for PRT1, whose leaves need not appear in the text.
+pub const MAX_LEAVES: u32 = 1 << 22;
 
 /// Which variant a portal file is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,4 +61,468 @@ pub struct PortalFile {
     pub portals: Vec<PrtPortal>,
     /// Cluster of each vis leaf (`0..num_leaves`); the identity for PRT1.
     pub leaf_clusters: Vec<u32>,
+}
+
+/// What went wrong while reading a `.prt`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PrtErrorKind {
+    /// The first token is not `PRT1`, `PRT2` or `PRT1-AM`.
+    #[error("unknown portal file header `{0}`, expected PRT1, PRT2 or PRT1-AM")]
+    BadHeader(String),
+    /// End of text where more was needed.
+    #[error("unexpected end of file, expected {0}")]
+    UnexpectedEof(&'static str),
+    /// A token that does not belong here.
+    #[error("unexpected `{found}`, expected {expected}")]
+    Stray {
+        /// The token found (truncated).
+        found: String,
+        /// What the grammar needed.
+        expected: &'static str,
+    },
+    /// A word that should be a number.
+    #[error("expected {expected}, found `{found}`")]
+    NotANumber {
+        /// The token found (truncated).
+        found: String,
+        /// What kind of number.
+        expected: &'static str,
+    },
+    /// A coordinate that is infinite or NaN.
+    #[error("non-finite coordinate `{0}`")]
+    NonFinite(String),
+    /// A header count the rest of the text cannot possibly hold.
+    #[error("{what} count {count} is more than the file can hold")]
+    CountTooLarge {
+        /// Which count.
+        what: &'static str,
+        /// The count read.
+        count: u64,
+    },
+    /// A leaf or cluster number out of range.
+    #[error("{what} {value} out of range (there are {limit})")]
+    OutOfRange {
+        /// "leaf" or "cluster".
+        what: &'static str,
+        /// The number read.
+        value: i64,
+        /// The exclusive upper bound.
+        limit: u32,
+    },
+    /// A winding with too few or too many points.
+    #[error("winding has {0} points, expected 3 to {MAX_POINTS}")]
+    BadPointCount(i64),
+    /// A leaf listed in two PRT2 clusters.
+    #[error("leaf {0} is listed in two clusters")]
+    LeafTwice(u32),
+    /// A leaf listed in no PRT2 cluster.
+    #[error("leaf {0} belongs to no cluster")]
+    LeafMissing(u32),
+    /// Tokens after the end of the data.
+    #[error("trailing data `{0}` after the last record")]
+    Trailing(String),
+}
+
+/// A `.prt` read error with its location; displays as `file:line:col: message`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}:{line}:{col}: {kind}")]
+pub struct PrtError {
+    /// The file name given to [`read`].
+    pub file: String,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based column (characters).
+    pub col: u32,
+    /// What went wrong.
+    pub kind: PrtErrorKind,
+}
+
+/// Smallest text one portal line takes: `3 0 0 (0 0 0) (0 0 0) (0 0 0)` without spaces between
+/// parentheses is 3 + 3 × 7 characters.
+const MIN_PORTAL_CHARS: usize = 24;
+
+/// Read a portal file. `file` is only used in error messages.
+pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
+    let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
+    let head = r.next("a header")?;
+    let format = match head.text {
+        "PRT1" => PrtFormat::Prt1,
+        "PRT2" => PrtFormat::Prt2,
+        "PRT1-AM" => PrtFormat::Prt1Am,
+        other => return Err(r.at(&head, PrtErrorKind::BadHeader(shown(other)))),
+    };
+    let (num_leaves, num_clusters, num_portals);
+    match format {
+        PrtFormat::Prt1 => {
+            num_leaves = r.count("leaf")?;
+            num_clusters = num_leaves;
+            num_portals = r.count("portal")?;
+        }
+        PrtFormat::Prt2 => {
+            num_leaves = r.count("leaf")?;
+            num_clusters = r.count("cluster")?;
+            num_portals = r.count("portal")?;
+        }
+        PrtFormat::Prt1Am => {
+            num_clusters = r.count("cluster")?;
+            num_portals = r.count("portal")?;
+            num_leaves = r.count("leaf")?;
+        }
+    }
+    let remaining = text.len().saturating_sub(r.lx.pos);
+    let pos = r.lx.position();
+    if (num_portals.1 as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
+        return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.1.into() }));
+    }
+    // PRT2 and PRT1-AM list every leaf (at least two characters each); PRT1 leaves need no text.
+    let leaf_limit = match format {
+        PrtFormat::Prt1 => MAX_LEAVES as usize,
+        _ => remaining / 2,
+    };
+    if num_leaves.1 as usize > leaf_limit {
+        return Err(r.err(num_leaves.0, PrtErrorKind::CountTooLarge { what: "leaf", count: num_leaves.1.into() }));
+    }
+    if format == PrtFormat::Prt2 && num_clusters.1 as usize > remaining / 3 {
+        return Err(r.err(num_clusters.0, PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() }));
+    }
+    if format == PrtFormat::Prt1Am && num_clusters.1 > num_leaves.1 {
+        return Err(r.err(num_clusters.0, PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() }));
+    }
+    let (num_leaves, num_clusters, num_portals) = (num_leaves.1, num_clusters.1, num_portals.1);
+    let what = if format == PrtFormat::Prt1 { "leaf" } else { "cluster" };
+    let mut portals = Vec::with_capacity(num_portals as usize);
+    for _ in 0..num_portals {
+        portals.push(r.portal(num_clusters, what)?);
+    }
+    let leaf_clusters = match format {
+        PrtFormat::Prt1 => (0..num_leaves).collect(),
+        PrtFormat::Prt2 => r.cluster_lists(num_leaves, num_clusters)?,
+        PrtFormat::Prt1Am => {
+            let mut v = Vec::with_capacity(num_leaves as usize);
+            for _ in 0..num_leaves {
+                v.push(r.index("cluster", num_clusters)?);
+            }
+            v
+        }
+    };
+    if let Some(tok) = r.lx.next_token() {
+        return Err(r.at(&tok, PrtErrorKind::Trailing(shown(tok.text))));
+    }
+    Ok(PortalFile { format, num_leaves, num_clusters, portals, leaf_clusters })
+}
+
+/// Write a portal file in its own variant; floats in shortest round-trip form.
+pub fn write(prt: &PortalFile) -> String {
+    let mut s = String::with_capacity(64 + prt.portals.len() * 80);
+    // `write!` to a String cannot fail.
+    let _ = match prt.format {
+        PrtFormat::Prt1 => write!(s, "PRT1\n{}\n{}\n", prt.num_leaves, prt.portals.len()),
+        PrtFormat::Prt2 => write!(s, "PRT2\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len()),
+        PrtFormat::Prt1Am => write!(s, "PRT1-AM\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves),
+    };
+    for p in &prt.portals {
+        let _ = write!(s, "{} {} {}", p.winding.points.len(), p.leaves[0], p.leaves[1]);
+        for q in &p.winding.points {
+            let _ = write!(s, " ({} {} {})", q.x, q.y, q.z);
+        }
+        s.push('\n');
+    }
+    match prt.format {
+        PrtFormat::Prt1 => {}
+        PrtFormat::Prt2 => {
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); prt.num_clusters as usize];
+            for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
+                if let Some(list) = lists.get_mut(c as usize) {
+                    list.push(leaf as u32);
+                }
+            }
+            for list in lists {
+                for leaf in list {
+                    let _ = write!(s, "{leaf} ");
+                }
+                s.push_str("-1\n");
+            }
+        }
+        PrtFormat::Prt1Am => {
+            for c in &prt.leaf_clusters {
+                let _ = writeln!(s, "{c}");
+            }
+        }
+    }
+    s
+}
+
+/// Truncate a token for an error message.
+fn shown(text: &str) -> String {
+    const MAX: usize = 40;
+    match text.char_indices().nth(MAX) {
+        Some((i, _)) => format!("{}…", &text[..i]),
+        None => text.to_string(),
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Token<'a> {
+    text: &'a str,
+    line: u32,
+    col: u32,
+}
+
+struct Lexer<'a> {
+    text: &'a str,
+    pos: usize,
+    line: u32,
+    col: u32,
+}
+
+impl<'a> Lexer<'a> {
+    fn position(&self) -> (u32, u32) {
+        (self.line, self.col)
+    }
+
+    fn bump(&mut self, c: char) {
+        self.pos += c.len_utf8();
+        if c == '\n' {
+            self.line += 1;
+            self.col = 1;
+        } else {
+            self.col += 1;
+        }
+    }
+
+    /// Next token: `(`, `)`, or a run of other non-whitespace characters.
+    fn next_token(&mut self) -> Option<Token<'a>> {
+        let rest = &self.text[self.pos..];
+        let mut chars = rest.chars();
+        loop {
+            let c = chars.next()?;
+            if !c.is_whitespace() {
+                break;
+            }
+            self.bump(c);
+        }
+        let (line, col, start) = (self.line, self.col, self.pos);
+        let first = self.text[start..].chars().next()?;
+        self.bump(first);
+        if first != '(' && first != ')' {
+            while let Some(c) = self.text[self.pos..].chars().next() {
+                if c.is_whitespace() || c == '(' || c == ')' {
+                    break;
+                }
+                self.bump(c);
+            }
+        }
+        Some(Token { text: &self.text[start..self.pos], line, col })
+    }
+}
+
+struct Reader<'a, 'f> {
+    lx: Lexer<'a>,
+    file: &'f str,
+}
+
+impl<'a> Reader<'a, '_> {
+    fn err(&self, (line, col): (u32, u32), kind: PrtErrorKind) -> PrtError {
+        PrtError { file: self.file.to_string(), line, col, kind }
+    }
+
+    fn at(&self, tok: &Token<'_>, kind: PrtErrorKind) -> PrtError {
+        self.err((tok.line, tok.col), kind)
+    }
+
+    fn next(&mut self, expected: &'static str) -> Result<Token<'a>, PrtError> {
+        match self.lx.next_token() {
+            Some(t) => Ok(t),
+            None => Err(self.err(self.lx.position(), PrtErrorKind::UnexpectedEof(expected))),
+        }
+    }
+
+    fn integer(&mut self, expected: &'static str) -> Result<(Token<'a>, i64), PrtError> {
+        let tok = self.next(expected)?;
+        match tok.text.parse::<i64>() {
+            Ok(v) => Ok((tok, v)),
+            Err(_) => Err(self.at(&tok, PrtErrorKind::NotANumber { found: shown(tok.text), expected })),
+        }
+    }
+
+    /// A header count, with its position.
+    fn count(&mut self, what: &'static str) -> Result<((u32, u32), u32), PrtError> {
+        let (tok, v) = self.integer("a count")?;
+        let Ok(v) = u32::try_from(v) else {
+            return Err(self.at(&tok, PrtErrorKind::CountTooLarge { what, count: v.max(0) as u64 }));
+        };
+        Ok(((tok.line, tok.col), v))
+    }
+
+    /// A leaf or cluster number below `limit`.
+    fn index(&mut self, what: &'static str, limit: u32) -> Result<u32, PrtError> {
+        let (tok, v) = self.integer(if what == "leaf" { "a leaf number" } else { "a cluster number" })?;
+        match u32::try_from(v) {
+            Ok(u) if u < limit => Ok(u),
+            _ => Err(self.at(&tok, PrtErrorKind::OutOfRange { what, value: v, limit })),
+        }
+    }
+
+    fn punct(&mut self, p: &'static str, expected: &'static str) -> Result<(), PrtError> {
+        let tok = self.next(expected)?;
+        if tok.text != p {
+            return Err(self.at(&tok, PrtErrorKind::Stray { found: shown(tok.text), expected }));
+        }
+        Ok(())
+    }
+
+    fn coord(&mut self) -> Result<f64, PrtError> {
+        let tok = self.next("a coordinate")?;
+        let Ok(v) = tok.text.parse::<f64>() else {
+            return Err(self.at(&tok, PrtErrorKind::NotANumber { found: shown(tok.text), expected: "a coordinate" }));
+        };
+        if !v.is_finite() {
+            return Err(self.at(&tok, PrtErrorKind::NonFinite(shown(tok.text))));
+        }
+        Ok(v)
+    }
+
+    fn portal(&mut self, limit: u32, what: &'static str) -> Result<PrtPortal, PrtError> {
+        let (tok, n) = self.integer("a point count")?;
+        if !(3..=MAX_POINTS as i64).contains(&n) {
+            return Err(self.at(&tok, PrtErrorKind::BadPointCount(n)));
+        }
+        let a = self.index(what, limit)?;
+        let b = self.index(what, limit)?;
+        let mut points = Vec::with_capacity(n as usize);
+        for _ in 0..n {
+            self.punct("(", "`(` opening a point")?;
+            let x = self.coord()?;
+            let y = self.coord()?;
+            let z = self.coord()?;
+            self.punct(")", "`)` closing a point")?;
+            points.push(DVec3::new(x, y, z));
+        }
+        Ok(PrtPortal { leaves: [a, b], winding: Winding::new(points) })
+    }
+
+    /// PRT2: per cluster, its leaves terminated by `-1`; every leaf exactly once.
+    fn cluster_lists(&mut self, num_leaves: u32, num_clusters: u32) -> Result<Vec<u32>, PrtError> {
+        const NONE: u32 = u32::MAX;
+        let mut of = vec![NONE; num_leaves as usize];
+        for cluster in 0..num_clusters {
+            loop {
+                let (tok, v) = self.integer("a leaf number or -1")?;
+                if v == -1 {
+                    break;
+                }
+                let leaf = match u32::try_from(v) {
+                    Ok(u) if u < num_leaves => u,
+                    _ => return Err(self.at(&tok, PrtErrorKind::OutOfRange { what: "leaf", value: v, limit: num_leaves })),
+                };
+                let slot = &mut of[leaf as usize];
+                if *slot != NONE {
+                    return Err(self.at(&tok, PrtErrorKind::LeafTwice(leaf)));
+                }
+                *slot = cluster;
+            }
+        }
+        if let Some(leaf) = of.iter().position(|&c| c == NONE) {
+            return Err(self.err(self.lx.position(), PrtErrorKind::LeafMissing(leaf as u32)));
+        }
+        Ok(of)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    const SMALL: &str = "PRT2\n3\n2\n1\n4 0 1 (0 0 0) (0 64 0) (0 64 64) (0 0 64)\n0 1 -1\n2 -1\n";
+
+    #[test]
+    fn reads_prt2() {
+        let f = read(SMALL, "t.prt").expect("valid");
+        assert_eq!(f.format, PrtFormat::Prt2);
+        assert_eq!((f.num_leaves, f.num_clusters, f.portals.len()), (3, 2, 1));
+        assert_eq!(f.leaf_clusters, vec![0, 0, 1]);
+        assert_eq!(f.portals[0].winding.points[2], DVec3::new(0.0, 64.0, 64.0));
+        assert_eq!(read(&write(&f), "t.prt").expect("round trip"), f);
+    }
+
+    #[test]
+    fn reads_prt1_am_and_exponents() {
+        let text = "PRT1-AM\n2 1 3\n3 1 0 (0 0 0)(2.84e-14 1 0)(0 1 1)\n0\n1\n1\n";
+        let f = read(text, "a.prt").expect("valid");
+        assert_eq!(f.format, PrtFormat::Prt1Am);
+        assert_eq!(f.leaf_clusters, vec![0, 1, 1]);
+        assert_eq!(f.portals[0].winding.points[1].x, 2.84e-14);
+    }
+
+    fn err(text: &str) -> PrtError {
+        read(text, "bad.prt").expect_err("must fail")
+    }
+
+    #[test]
+    fn rejects_bad_input_with_location() {
+        let e = err("PRT1\n2\n1\n3 0 2 (0 0 0) (1 0 0) (0 1 0)\n");
+        assert_eq!((e.line, e.col), (4, 5));
+        assert!(matches!(e.kind, PrtErrorKind::OutOfRange { value: 2, .. }));
+        assert_eq!(e.to_string(), "bad.prt:4:5: leaf 2 out of range (there are 2)");
+        assert!(matches!(err("PRT1\n2\n1\n2 0 1 (0 0 0) (1 0 0)\n").kind, PrtErrorKind::BadPointCount(2)));
+        assert!(matches!(err("PRT1\n2\n1\n65 0 1 (0 0 0)\n").kind, PrtErrorKind::BadPointCount(65)));
+        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (inf 0 0) (0 1 0)\n").kind, PrtErrorKind::NonFinite(_)));
+        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (NaN 0 0) (0 1 0)\n").kind, PrtErrorKind::NonFinite(_)));
+        assert!(matches!(err("PRT3\n").kind, PrtErrorKind::BadHeader(_)));
+        assert!(matches!(err("PRT1\n2\n4000000000\n").kind, PrtErrorKind::CountTooLarge { .. }));
+        assert!(matches!(err("PRT1\n2\n99999999\n").kind, PrtErrorKind::CountTooLarge { .. }));
+        assert!(matches!(err("PRT2\n999999\n1\n0\n").kind, PrtErrorKind::CountTooLarge { .. }));
+        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (1 0 0) (0 1 0\n").kind, PrtErrorKind::UnexpectedEof(_)));
+        assert!(matches!(err("PRT1\n2\n0\nextra").kind, PrtErrorKind::Trailing(_)));
+        assert!(matches!(err("PRT2\n2\n1\n0\n0 0 -1\n").kind, PrtErrorKind::LeafTwice(0)));
+        assert!(matches!(err("PRT2\n2\n1\n0\n0 -1\n").kind, PrtErrorKind::LeafMissing(1)));
+        assert!(matches!(err("PRT1-AM\n1\n0\n1\n1\n").kind, PrtErrorKind::OutOfRange { .. }));
+    }
+
+    fn coord() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            (-4096i32..4096).prop_map(f64::from),
+            -1.0e5f64..1.0e5,
+            (-1.0e-10f64..1.0e-10),
+        ]
+    }
+
+    fn portal(limit: u32) -> impl Strategy<Value = PrtPortal> {
+        (0..limit, 0..limit, prop::collection::vec((coord(), coord(), coord()), 3..10)).prop_map(|(a, b, pts)| {
+            PrtPortal {
+                leaves: [a, b],
+                winding: Winding::new(pts.into_iter().map(|(x, y, z)| DVec3::new(x, y, z)).collect()),
+            }
+        })
+    }
+
+    fn file() -> impl Strategy<Value = PortalFile> {
+        (1u32..20, 0usize..3).prop_flat_map(|(clusters, kind)| {
+            let format = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am][kind];
+            let leaves = prop::collection::vec(0..clusters, clusters as usize..clusters as usize + 10);
+            (prop::collection::vec(portal(clusters), 0..12), leaves).prop_map(move |(portals, mut lc)| {
+                // Every cluster owns at least one leaf; PRT1 is the identity.
+                for (i, c) in lc.iter_mut().enumerate().take(clusters as usize) {
+                    *c = i as u32;
+                }
+                if format == PrtFormat::Prt1 {
+                    lc.truncate(clusters as usize);
+                } else if format == PrtFormat::Prt2 {
+                    // The writer lists leaves cluster by cluster, so the reader's order is the same.
+                }
+                PortalFile { format, num_leaves: lc.len() as u32, num_clusters: clusters, portals, leaf_clusters: lc }
+            })
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn write_then_read_is_identity(f in file()) {
+            let text = write(&f);
+            let back = read(&text, "p.prt").map_err(|e| TestCaseError::fail(e.to_string()))?;
+            prop_assert_eq!(back, f);
+        }
+    }
 }

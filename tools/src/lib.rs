@@ -3,4 +3,9 @@
 
 pub mod cli;
 pub mod cmd;
+pub mod gvs;
+pub mod mapgen;
 pub mod progress;
+pub mod render;
+pub mod scenegen;
+pub mod validate;

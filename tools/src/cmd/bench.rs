@@ -1,15 +1,200 @@
-//! `sightline bench` (work in progress: not wired yet).
+//! `sightline bench`: time every runtime backend on deterministic random camera poses.
+//!
+//! Poses come from [`sightline_runtime::poses::random_cameras`] (SplitMix64 seeded by `--seed`):
+//! a random open leaf, a random point in it, random yaw, pitch within ±60°, Quake's 90° horizontal
+//! field of view at 4:3. Every pose is a new eye position, so the PVS backend decodes and marks a
+//! row nearly every frame (its worst case; a real camera stays in one cluster for many frames).
+//! Each backend runs all poses once to warm up, then once timed, one `Instant` pair per frame.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::json;
+use sightline_runtime::backend::{self, Backend, pvs::Pvs};
+use sightline_runtime::walk::walk_marked;
+use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
 use crate::cli::Outcome;
 
 /// Arguments of `sightline bench`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
-    pub input: std::path::PathBuf,
+    /// Level (`.slvl`) or Quake map (`.bsp`; a PRT1 `NAME.prt` beside it gives the portal backend
+    /// its portals).
+    pub input: PathBuf,
+    /// Camera poses (frames) per backend.
+    #[arg(long, default_value_t = 10_000)]
+    pub frames: usize,
+    /// Seed of the pose generator.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Only this backend (repeatable); default: every backend the level supports.
+    #[arg(long = "backend")]
+    pub backends: Vec<String>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Timings and counts of one backend.
+#[derive(Debug, Clone, serde::Serialize)]
+struct Report {
+    backend: &'static str,
+    frames: usize,
+    ns_per_frame_min: u64,
+    ns_per_frame_median: u64,
+    ns_per_frame_p99: u64,
+    ns_per_frame_mean: f64,
+    /// Leaves marked before the frustum: the PVS (or the leaves the portal search reached).
+    pvs_leaves_avg: f64,
+    /// Leaves output after the frustum.
+    visible_leaves_avg: f64,
+    visible_faces_avg: f64,
+    /// Mean frame time over mean PVS leaves.
+    ns_per_pvs_leaf: f64,
+    /// PVS backend only: mean time of locating the eye, decoding the row and marking up the tree.
+    mark_ns_mean: Option<f64>,
+    /// PVS backend only: mean time of the frustum walk alone.
+    walk_ns_mean: Option<f64>,
+    /// PVS backend only: walk time over mean PVS leaves (comparable to the C reference's 68 ns,
+    /// which is its traversal over its PVS leaves).
+    walk_ns_per_pvs_leaf: Option<f64>,
+    /// Frames where the portal search hit its budget.
+    truncated_frames: usize,
 }
 
 /// Run the command.
-pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::bail!("`sightline bench` is not implemented yet")
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
+    let world = load::load_path(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let cams = poses::random_cameras(&world, args.seed, args.frames);
+    anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
+    let chosen: Vec<&'static dyn Backend> = if args.backends.is_empty() {
+        backend::all().iter().copied().filter(|b| b.supports(&world)).collect()
+    } else {
+        args.backends
+            .iter()
+            .map(|name| {
+                let b = backend::by_name(name).with_context(|| format!("unknown backend `{name}`"))?;
+                anyhow::ensure!(b.supports(&world), "backend `{name}` cannot run on this level");
+                Ok(b)
+            })
+            .collect::<anyhow::Result<_>>()?
+    };
+    let reports: Vec<Report> = chosen.iter().map(|b| measure(&world, *b, &cams)).collect();
+    if args.json {
+        let out = json!({
+            "input": args.input.display().to_string(),
+            "frames": cams.len(),
+            "seed": args.seed,
+            "leaves": world.num_leaves(),
+            "open_leaves": world.open_leaves().len(),
+            "clusters": world.num_clusters(),
+            "portals": world.num_portals(),
+            "camera": { "fov_y": cams[0].fov_y, "aspect": cams[0].aspect, "pitch_range": 60 },
+            "backends": reports,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        print_table(&args.input, &world, cams.len(), args.seed, &reports);
+    }
+    Ok(Outcome::Clean)
+}
+
+fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let views: Vec<_> = cams.iter().map(Camera::view).collect();
+    for view in &views {
+        backend.cull(world, view, &mut scratch, &mut out);
+    }
+    let mut times = Vec::with_capacity(views.len());
+    let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
+    for view in &views {
+        let start = Instant::now();
+        backend.cull(world, view, &mut scratch, &mut out);
+        times.push(start.elapsed().as_nanos() as u64);
+        marked += u64::from(scratch.stats.marked_leaves);
+        leaves += out.leaves.len() as u64;
+        faces += out.faces.len() as u64;
+        truncated += usize::from(scratch.stats.truncated);
+    }
+    let n = views.len() as f64;
+    let mean = times.iter().sum::<u64>() as f64 / n;
+    times.sort_unstable();
+    let pick = |q: f64| times.get(((times.len() - 1) as f64 * q).round() as usize).copied().unwrap_or(0);
+    let pvs_avg = marked as f64 / n;
+    let (mark_ns, walk_ns) = if backend.name() == "pvs" { phases(world, &views) } else { (None, None) };
+    Report {
+        backend: backend.name(),
+        frames: views.len(),
+        ns_per_frame_min: pick(0.0),
+        ns_per_frame_median: pick(0.5),
+        ns_per_frame_p99: pick(0.99),
+        ns_per_frame_mean: mean,
+        pvs_leaves_avg: pvs_avg,
+        visible_leaves_avg: leaves as f64 / n,
+        visible_faces_avg: faces as f64 / n,
+        ns_per_pvs_leaf: mean / pvs_avg.max(1.0),
+        mark_ns_mean: mark_ns,
+        walk_ns_mean: walk_ns,
+        walk_ns_per_pvs_leaf: walk_ns.map(|w| w / pvs_avg.max(1.0)),
+        truncated_frames: truncated,
+    }
+}
+
+/// Mean time of the PVS backend's two phases: locate + decode + mark, then the walk.
+fn phases(world: &World, views: &[sightline_runtime::View]) -> (Option<f64>, Option<f64>) {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let (mut mark, mut walk) = (0u128, 0u128);
+    for view in views {
+        let t0 = Instant::now();
+        let leaf = world.leaf_at(view.eye);
+        Pvs::mark(world, leaf, &mut scratch);
+        let t1 = Instant::now();
+        walk_marked(world, view, &mut scratch, &mut out);
+        let t2 = Instant::now();
+        mark += (t1 - t0).as_nanos();
+        walk += (t2 - t1).as_nanos();
+    }
+    let n = views.len().max(1) as f64;
+    (Some(mark as f64 / n), Some(walk as f64 / n))
+}
+
+fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64, reports: &[Report]) {
+    println!(
+        "{}: {} leaves ({} open), {} clusters, {} portals; {frames} random poses, seed {seed}",
+        input.display(),
+        world.num_leaves(),
+        world.open_leaves().len(),
+        world.num_clusters(),
+        world.num_portals()
+    );
+    println!(
+        "{:<8} {:>9} {:>9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10}",
+        "backend", "min ns", "median ns", "p99 ns", "PVS leaves", "after frus.", "faces", "ns/PVS lf", "walk ns/lf"
+    );
+    for r in reports {
+        let walk = r.walk_ns_per_pvs_leaf.map_or_else(|| "-".to_string(), |w| format!("{w:.1}"));
+        println!(
+            "{:<8} {:>9} {:>9} {:>9} {:>10.1} {:>11.1} {:>10.1} {:>10.1} {:>10}",
+            r.backend,
+            r.ns_per_frame_min,
+            r.ns_per_frame_median,
+            r.ns_per_frame_p99,
+            r.pvs_leaves_avg,
+            r.visible_leaves_avg,
+            r.visible_faces_avg,
+            r.ns_per_pvs_leaf,
+            walk
+        );
+        if let (Some(m), Some(w)) = (r.mark_ns_mean, r.walk_ns_mean) {
+            println!("         phases: locate + decode + mark {m:.0} ns, walk {w:.0} ns (means)");
+        }
+        if r.truncated_frames > 0 {
+            println!("         {} frames hit the portal search budget", r.truncated_frames);
+        }
+    }
 }

@@ -1,15 +1,558 @@
-//! `sightline gvs` (work in progress: not wired yet).
+//! `sightline gvs`: guided visibility sampling per view cell, with the thesis' error metric.
+//!
+//! Scenes: `gen:<city|spheres|mixed|mesh>:<size>` (see [`crate::scenegen`]), a `.obj` mesh, or a
+//! compiled level (`.slvl`). Cells: `auto` (the generator's suggestion), a grid cell size, `leaves`
+//! (a level's open leaves), or `x0,y0,z0,x1,y1,z1`; `--cell` can be repeated.
+//!
+//! With `--compare`, every variant (stock GVS, `d4`, `adt`, edge-point) runs on the same cells and is
+//! measured against the same ID buffers, and the incremental update is compared with a fresh run on
+//! the cell moved by `--move`.
+
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use glam::Vec3;
+use serde::Serialize;
+use sightline_runtime::bvh::Bvh;
 
 use crate::cli::Outcome;
+use crate::gvs::scene::{self, TriScene};
+use crate::gvs::{self, Cell, Params, Pvs, Stats, Variant, error, update};
+use crate::progress;
+use crate::scenegen;
 
 /// Arguments of `sightline gvs`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
-    pub input: std::path::PathBuf,
+    /// Scene: `gen:<city|spheres|mixed|mesh>:<size>`, a `.obj` mesh or a `.slvl` level.
+    pub input: String,
+    /// View cells: `auto`, a grid cell size, `leaves`, or `x0,y0,z0,x1,y1,z1` (repeatable).
+    #[arg(long, default_value = "auto")]
+    pub cell: Vec<String>,
+    /// Use at most this many cells (evenly spaced through the list).
+    #[arg(long)]
+    pub max_cells: Option<usize>,
+    /// Variant to run: gvs (stock), d4, adt, edgepoint, edgepoint+sil.
+    #[arg(long, default_value = "gvs")]
+    pub variant: String,
+    /// Run every variant and the incremental update side by side and print a table.
+    #[arg(long)]
+    pub compare: bool,
+    /// Cell translation for the incremental-update comparison, `dx,dy,dz` (default: a quarter of
+    /// the first cell's width along x).
+    #[arg(long = "move")]
+    pub move_by: Option<String>,
+    /// Views per measured cell for the error metric (0 disables it).
+    #[arg(long, default_value_t = 10)]
+    pub views: usize,
+    /// ID buffer width and height in pixels.
+    #[arg(long, default_value_t = 1000)]
+    pub res: usize,
+    /// ID buffer field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov: f32,
+    /// Cells whose error is measured (evenly spaced).
+    #[arg(long, default_value_t = 4)]
+    pub error_cells: usize,
+    /// Enlarged-outline angular offset (radians).
+    #[arg(long)]
+    pub eps: Option<f32>,
+    /// Deepest edge bisection.
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Relative depth-discontinuity threshold.
+    #[arg(long)]
+    pub disc: Option<f32>,
+    /// Angular threshold of the `adt` variant (radians).
+    #[arg(long)]
+    pub adt: Option<f32>,
+    /// Termination window in rays.
+    #[arg(long)]
+    pub window: Option<u64>,
+    /// Fewest new triangles per window to go on.
+    #[arg(long)]
+    pub min_new: Option<u32>,
+    /// Cap on all rays per cell.
+    #[arg(long)]
+    pub max_rays: Option<u64>,
+    /// Cap on random rays per cell.
+    #[arg(long)]
+    pub max_random: Option<u64>,
+    /// Edge-point walk without the forced midpoint ray.
+    #[arg(long)]
+    pub no_midpoint: bool,
+    /// Disable reverse sampling.
+    #[arg(long)]
+    pub no_reverse: bool,
+    /// Seed of the random rays and the error views.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Seed of generated scenes.
+    #[arg(long, default_value_t = 1)]
+    pub scene_seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Write the level with the per-cell face sets to this `.slvl`.
+    #[arg(short = 'o', long)]
+    pub output: Option<std::path::PathBuf>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One line of the result: a variant on the measured cells.
+#[derive(Debug, Serialize)]
+struct Row {
+    variant: String,
+    cells: usize,
+    rays: u64,
+    random: u64,
+    point: u64,
+    edge: u64,
+    reverse: u64,
+    reuse: u64,
+    silhouette: u64,
+    discontinuities: u64,
+    seconds: f64,
+    pvs: usize,
+    error_mean: Option<f64>,
+    error_max: Option<u64>,
+}
+
+/// The JSON report.
+#[derive(Debug, Serialize)]
+struct Report {
+    scene: String,
+    triangles: usize,
+    cells: usize,
+    bvh_build_seconds: f64,
+    bvh_nodes: usize,
+    params: Params,
+    rows: Vec<Row>,
+    error_views: usize,
+    error_res: usize,
+    error_fov: f32,
+    error_rays: u64,
+    error_seconds: f64,
+    threads: usize,
+    rays_per_second_per_core: f64,
+    rays_per_cpu_second: Option<f64>,
 }
 
 /// Run the command.
-pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::bail!("`sightline gvs` is not implemented yet")
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;
+    pool.install(|| run_in_pool(args, threads.max(1)))
+}
+
+fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
+    let (scene, level) = load(&args.input, args.scene_seed)?;
+    if scene.triangles.is_empty() {
+        bail!("{}: no triangles", args.input);
+    }
+    let mut cells = Vec::new();
+    for spec in &args.cell {
+        cells.extend(parse_cells(spec, &scene, level.as_ref())?);
+    }
+    if let Some(k) = args.max_cells
+        && k < cells.len()
+    {
+        cells = evenly(&cells, k);
+    }
+    if cells.is_empty() {
+        bail!("no view cells");
+    }
+    let params = params(args);
+    let t0 = Instant::now();
+    let bvh = Bvh::build(&scene.triangles);
+    let bvh_seconds = t0.elapsed().as_secs_f64();
+    if !args.json {
+        eprintln!(
+            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s",
+            args.input,
+            scene.triangles.len(),
+            cells.len(),
+            bvh.node_count(),
+            bvh_seconds
+        );
+    }
+
+    let variants: Vec<Variant> =
+        if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
+    let mut rows = Vec::new();
+    let mut results: Vec<(Variant, Vec<Pvs>)> = Vec::new();
+    for &v in &variants {
+        let bar = progress::bar(v.name(), cells.len() as u64, args.json);
+        let p = v.params(params);
+        let pvs = gvs::run_cells(&scene.triangles, &bvh, &cells, p, &|| bar.inc(1));
+        bar.finish_and_clear();
+        results.push((v, pvs));
+    }
+
+    // Error measurement: the same ID buffers for every variant.
+    let measured: Vec<usize> =
+        evenly(&(0..cells.len()).collect::<Vec<_>>(), args.error_cells.min(cells.len()));
+    let error_rays = AtomicU64::new(0);
+    let t_err = Instant::now();
+    let cpu_err = cpu_seconds();
+    let buffers = |cell: &Cell, seed: u64| -> Vec<Vec<u32>> {
+        error::views(cell, args.views, seed)
+            .iter()
+            .map(|view| {
+                error_rays.fetch_add((args.res * args.res) as u64, Ordering::Relaxed);
+                error::id_buffer(&bvh, view, args.res, args.fov)
+            })
+            .collect()
+    };
+    let measure_on = args.views > 0 && args.res > 0;
+    let bar = progress::bar("error", measured.len() as u64, args.json || !measure_on);
+    let cell_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
+        measured
+            .iter()
+            .map(|&i| {
+                let b = buffers(&cells[i], args.seed.wrapping_add(i as u64));
+                bar.inc(1);
+                b
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    bar.finish_and_clear();
+    let mut error_seconds = t_err.elapsed().as_secs_f64();
+    let mut error_cpu = cpu_seconds().zip(cpu_err).map(|(b, a)| b - a);
+    for (v, pvs) in &results {
+        rows.push(row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len()));
+    }
+
+    if args.compare {
+        // Incremental update against a fresh run on the moved cell, best variant's parameters.
+        let base = Variant::Silhouette.params(params);
+        let shift = match &args.move_by {
+            Some(s) => parse_vec(s)?,
+            None => Vec3::X * ((cells[0].max.x - cells[0].min.x) * 0.25),
+        };
+        let prev = results.iter().find(|(v, _)| *v == Variant::Silhouette).map(|(_, p)| p);
+        if let Some(prev) = prev {
+            let moved: Vec<Cell> = cells.iter().map(|c| c.translated(shift)).collect();
+            let fresh = gvs::run_cells(&scene.triangles, &bvh, &moved, base, &|| {});
+            let updated: Vec<Pvs> = {
+                use rayon::prelude::*;
+                prev.par_iter().map(|p| update::update(&scene.triangles, &bvh, p, shift, base)).collect()
+            };
+            let t_err2 = Instant::now();
+            let cpu2 = cpu_seconds();
+            let moved_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
+                measured
+                    .iter()
+                    .map(|&i| buffers(&moved[i], args.seed.wrapping_add(1000 + i as u64)))
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            error_seconds += t_err2.elapsed().as_secs_f64();
+            error_cpu = error_cpu.zip(cpu_seconds().zip(cpu2)).map(|(e, (b, a))| e + b - a);
+            rows.push(row("edgepoint+sil@moved", &fresh, &measured, &moved_buffers, scene.triangles.len()));
+            rows.push(row("incremental@moved", &updated, &measured, &moved_buffers, scene.triangles.len()));
+        }
+    }
+
+    let error_rays = error_rays.into_inner();
+    let per_core = if error_seconds > 0.0 { error_rays as f64 / error_seconds / threads as f64 } else { 0.0 };
+    let per_cpu = error_cpu.filter(|&c| c > 0.0).map(|c| error_rays as f64 / c);
+    let report = Report {
+        scene: args.input.clone(),
+        triangles: scene.triangles.len(),
+        cells: cells.len(),
+        bvh_build_seconds: bvh_seconds,
+        bvh_nodes: bvh.node_count(),
+        params,
+        rows,
+        error_views: if measure_on { args.views * measured.len() } else { 0 },
+        error_res: args.res,
+        error_fov: args.fov,
+        error_rays,
+        error_seconds,
+        threads,
+        rays_per_second_per_core: per_core,
+        rays_per_cpu_second: per_cpu,
+    };
+
+    if let Some(out) = &args.output {
+        let (v, pvs) = &results[0];
+        let mut level = match level {
+            Some(l) => l,
+            None => gvs::soup_level(&scene.triangles),
+        };
+        gvs::store(&mut level, pvs, scene.face_of.as_deref());
+        write_level(out, &level).with_context(|| format!("writing {}", out.display()))?;
+        if !args.json {
+            eprintln!("wrote {} ({} cells, variant {})", out.display(), level.gvs_cells.len(), v.name());
+        }
+    }
+
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_table(&report);
+    }
+    Ok(Outcome::Clean)
+}
+
+fn params(args: &Args) -> Params {
+    let d = Params::default();
+    Params {
+        eps: args.eps.unwrap_or(d.eps),
+        max_depth: args.max_depth.unwrap_or(d.max_depth),
+        disc: args.disc.unwrap_or(d.disc),
+        adt: args.adt.or(d.adt),
+        window: args.window.unwrap_or(d.window),
+        min_new: args.min_new.unwrap_or(d.min_new),
+        max_rays: args.max_rays.unwrap_or(d.max_rays),
+        max_random: args.max_random.unwrap_or(d.max_random),
+        midpoint: !args.no_midpoint,
+        reverse: !args.no_reverse,
+        seed: args.seed,
+        ..d
+    }
+}
+
+fn parse_variant(s: &str) -> anyhow::Result<Variant> {
+    Variant::ALL
+        .into_iter()
+        .find(|v| v.name() == s || (s == "stock" && *v == Variant::Stock))
+        .with_context(|| format!("unknown variant `{s}` (gvs, d4, adt, edgepoint, edgepoint+sil)"))
+}
+
+fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n: usize) -> Row {
+    let mut s = Stats::default();
+    for p in pvs {
+        s.rays += p.stats.rays;
+        s.random += p.stats.random;
+        s.point += p.stats.point;
+        s.edge += p.stats.edge;
+        s.reverse += p.stats.reverse;
+        s.reuse += p.stats.reuse;
+        s.silhouette += p.stats.silhouette;
+        s.discontinuities += p.stats.discontinuities;
+        s.seconds += p.stats.seconds;
+    }
+    let pvs_total: usize = pvs.iter().map(|p| p.entries.len()).sum();
+    let (mut sum, mut count, mut max) = (0.0, 0usize, 0u64);
+    for (k, &i) in measured.iter().enumerate() {
+        let (Some(b), Some(p)) = (buffers.get(k), pvs.get(i)) else {
+            continue;
+        };
+        let (mean, m) = error::measure(b, &p.bitset(n));
+        sum += mean * b.len() as f64;
+        count += b.len();
+        max = max.max(m);
+    }
+    let cells = pvs.len().max(1);
+    Row {
+        variant: name.to_string(),
+        cells: pvs.len(),
+        rays: s.rays / cells as u64,
+        random: s.random / cells as u64,
+        point: s.point / cells as u64,
+        edge: s.edge / cells as u64,
+        reverse: s.reverse / cells as u64,
+        reuse: s.reuse / cells as u64,
+        silhouette: s.silhouette / cells as u64,
+        discontinuities: s.discontinuities / cells as u64,
+        seconds: s.seconds / cells as f64,
+        pvs: pvs_total / cells,
+        error_mean: (count > 0).then(|| sum / count as f64),
+        error_max: (count > 0).then_some(max),
+    }
+}
+
+fn print_table(r: &Report) {
+    println!(
+        "{}: {} triangles, {} cells, BVH {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
+        r.scene,
+        r.triangles,
+        r.cells,
+        r.bvh_build_seconds,
+        r.error_views,
+        r.error_res,
+        r.error_res,
+        r.error_fov
+    );
+    println!(
+        "{:<18} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>8} {:>8} {:>10} {:>8}",
+        "variant",
+        "rays",
+        "random",
+        "point",
+        "edge",
+        "reverse",
+        "reuse",
+        "seconds",
+        "pvs",
+        "err mean",
+        "err max"
+    );
+    for row in &r.rows {
+        let mean = row.error_mean.map_or("-".to_string(), |m| format!("{m:.1}"));
+        let max = row.error_max.map_or("-".to_string(), |m| m.to_string());
+        println!(
+            "{:<20} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>8.3} {:>8} {:>9} {:>8}",
+            row.variant,
+            row.rays,
+            row.random,
+            row.point,
+            row.edge,
+            row.reverse,
+            row.silhouette,
+            row.reuse,
+            row.seconds,
+            row.pvs,
+            mean,
+            max
+        );
+    }
+    if r.error_rays > 0 {
+        println!(
+            "error rays: {} in {:.2} s on {} threads = {:.2} M rays/s per core",
+            r.error_rays,
+            r.error_seconds,
+            r.threads,
+            r.rays_per_second_per_core / 1e6
+        );
+        if let Some(c) = r.rays_per_cpu_second {
+            println!("error rays per CPU second (process CPU time, fair on a shared machine): {:.2} M", c / 1e6);
+        }
+    }
+}
+
+/// `k` items spread evenly through `items`.
+fn evenly<T: Clone>(items: &[T], k: usize) -> Vec<T> {
+    if k == 0 || items.is_empty() {
+        return Vec::new();
+    }
+    let k = k.min(items.len());
+    (0..k).filter_map(|i| items.get(i * items.len() / k).cloned()).collect()
+}
+
+fn parse_vec(s: &str) -> anyhow::Result<Vec3> {
+    let v = parse_floats(s)?;
+    match v[..] {
+        [x, y, z] => Ok(Vec3::new(x, y, z)),
+        _ => bail!("`{s}`: expected dx,dy,dz"),
+    }
+}
+
+fn parse_floats(s: &str) -> anyhow::Result<Vec<f32>> {
+    s.split(',')
+        .map(|t| {
+            let x: f32 = t.trim().parse().with_context(|| format!("`{t}` in `{s}` is not a number"))?;
+            if !x.is_finite() {
+                bail!("`{t}` in `{s}` is not finite");
+            }
+            Ok(x)
+        })
+        .collect()
+}
+
+/// Cells from one `--cell` argument.
+fn parse_cells(
+    spec: &str,
+    scene: &TriScene,
+    level: Option<&sightline_formats::Level>,
+) -> anyhow::Result<Vec<Cell>> {
+    match spec {
+        "auto" => {
+            if scene.suggested.is_empty() {
+                bail!("`--cell auto` needs a generated scene; give a size, `leaves` or a box");
+            }
+            Ok(scene.suggested.clone())
+        }
+        "leaves" => {
+            let Some(level) = level else {
+                bail!("`--cell leaves` needs a level (.slvl) input");
+            };
+            Ok(scene::leaf_cells(level, 1.0))
+        }
+        _ => {
+            let v = parse_floats(spec)?;
+            match v[..] {
+                [size] => grid(&scene.bounds(), size),
+                [x0, y0, z0, x1, y1, z1] => Ok(vec![Cell::new(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1))]),
+                _ => bail!("`--cell {spec}`: expected auto, leaves, a size or x0,y0,z0,x1,y1,z1"),
+            }
+        }
+    }
+}
+
+/// Most cells a grid may have.
+const MAX_GRID: u64 = 1 << 20;
+
+/// A grid of cubes of side `size` covering `bounds`.
+fn grid(bounds: &Cell, size: f32) -> anyhow::Result<Vec<Cell>> {
+    if !(size > 0.0) {
+        bail!("cell size {size} must be positive");
+    }
+    let ext = bounds.max - bounds.min;
+    let n = (ext / size).ceil().max(Vec3::ONE);
+    let count = n.x as u64 * n.y as u64 * n.z as u64;
+    if count > MAX_GRID {
+        bail!("cell size {size} gives {count} cells (at most {MAX_GRID}); use a larger size");
+    }
+    let mut cells = Vec::with_capacity(count as usize);
+    for k in 0..n.z as u32 {
+        for j in 0..n.y as u32 {
+            for i in 0..n.x as u32 {
+                let lo = bounds.min + Vec3::new(i as f32, j as f32, k as f32) * size;
+                cells.push(Cell::new(lo, lo + Vec3::splat(size)));
+            }
+        }
+    }
+    Ok(cells)
+}
+
+/// Load a scene, and the level when the input is one.
+fn load(input: &str, scene_seed: u64) -> anyhow::Result<(TriScene, Option<sightline_formats::Level>)> {
+    if let Some(spec) = scenegen::parse_spec(input) {
+        let (kind, size) = spec?;
+        return Ok((scene::generated(kind, size, scene_seed), None));
+    }
+    let path = Path::new(input);
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+    match ext.as_str() {
+        "obj" => Ok((load_obj(path)?, None)),
+        "slvl" => {
+            let level = read_level(path)?;
+            Ok((scene::from_level(&level), Some(level)))
+        }
+        _ => bail!("{input}: expected gen:<kind>:<size>, a .obj or a .slvl"),
+    }
+}
+
+fn load_obj(path: &Path) -> anyhow::Result<TriScene> {
+    bail!("{}: .obj input needs formats::obj (not available yet)", path.display())
+}
+
+fn read_level(path: &Path) -> anyhow::Result<sightline_formats::Level> {
+    bail!("{}: .slvl input needs formats::slvl (not available yet)", path.display())
+}
+
+fn write_level(path: &Path, _level: &sightline_formats::Level) -> anyhow::Result<()> {
+    bail!("{}: .slvl output needs formats::slvl (not available yet)", path.display())
+}
+
+/// CPU seconds this process has used (user + system), from `/proc/self/stat`; `None` elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    // Linux reports clock ticks; USER_HZ is 100 on every mainstream configuration.
+    Some((utime + stime) / 100.0)
 }

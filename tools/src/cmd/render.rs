@@ -1,15 +1,161 @@
-//! `sightline render` (work in progress: not wired yet).
+//! `sightline render`: pictures of a level as PNG.
+//!
+//! Exactly one mode: `--view` (first person, with `--look`), `--plan` (top-down, with `--from`),
+//! `--leak` (the plan with a pointfile's path) or `--pvs-matrix`.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use glam::DVec3;
 
 use crate::cli::Outcome;
+use crate::render::plan::{PlanOptions, render_plan};
+use crate::render::view::{Camera, render_view};
+use crate::render::{matrix, read_pointfile};
+use crate::validate::bsp::BspTree;
+use crate::validate::{load, pvs};
 
 /// Arguments of `sightline render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
-    pub input: std::path::PathBuf,
+    /// A Quake `.bsp` or a Sightline `.slvl`.
+    pub input: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// First-person view from this eye position `x,y,z`.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub view: Option<String>,
+    /// View angles `yaw,pitch` in degrees (yaw from +x towards +y, pitch positive up).
+    #[arg(long, value_name = "YAW,PITCH", allow_hyphen_values = true)]
+    pub look: Option<String>,
+    /// Horizontal field of view in degrees.
+    #[arg(long, default_value_t = 90.0)]
+    pub fov: f64,
+    /// Image size `WxH` of a view (a plan uses W and its own aspect).
+    #[arg(long, default_value = "640x480")]
+    pub size: String,
+    /// In a view, paint anything outside the eye cluster's PVS bright red (exit 1 if any).
+    #[arg(long)]
+    pub pvs: bool,
+    /// Top-down plan of the leaves in a z slab, seen from `--from`.
+    #[arg(long)]
+    pub plan: bool,
+    /// Eye position `x,y,z` of a plan.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub from: Option<String>,
+    /// The slab `z0..z1` of a plan (default: 64 units below to 64 above the eye).
+    #[arg(long, value_name = "Z0..Z1", allow_hyphen_values = true)]
+    pub z: Option<String>,
+    /// A `.prt` file whose portals a plan draws (the level's own portals are always drawn).
+    #[arg(long)]
+    pub prt: Option<PathBuf>,
+    /// A plan with the leak path of this pointfile (`.pts`) drawn from entity to void.
+    #[arg(long, value_name = "MAP.PTS")]
+    pub leak: Option<PathBuf>,
+    /// The cluster-by-cluster PVS matrix.
+    #[arg(long)]
+    pub pvs_matrix: bool,
+}
+
+/// Parse `x,y,z`.
+fn vec3(s: &str, what: &str) -> anyhow::Result<DVec3> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>()
+        .with_context(|| format!("{what} `{s}`: expected x,y,z"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
+        _ => bail!("{what} `{s}`: expected three finite numbers x,y,z"),
+    }
+}
+
+/// Parse `a,b` or `a..b`.
+fn pair(s: &str, sep: &str, what: &str) -> anyhow::Result<(f64, f64)> {
+    let (a, b) = s.split_once(sep).with_context(|| format!("{what} `{s}`: expected a{sep}b"))?;
+    let a: f64 = a.trim().parse().with_context(|| format!("{what} `{s}`"))?;
+    let b: f64 = b.trim().parse().with_context(|| format!("{what} `{s}`"))?;
+    if !(a.is_finite() && b.is_finite()) {
+        bail!("{what} `{s}`: numbers must be finite");
+    }
+    Ok((a, b))
+}
+
+/// Parse `WxH`.
+fn size(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = s.split_once('x').with_context(|| format!("--size `{s}`: expected WxH"))?;
+    let (w, h): (u32, u32) = (w.parse()?, h.parse()?);
+    if w == 0 || h == 0 || w > 8192 || h > 8192 {
+        bail!("--size `{s}`: each side must be in 1..=8192");
+    }
+    Ok((w, h))
 }
 
 /// Run the command.
-pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::bail!("`sightline render` is not implemented yet")
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let modes = [args.view.is_some(), args.plan, args.leak.is_some(), args.pvs_matrix];
+    if modes.iter().filter(|&&m| m).count() != 1 {
+        bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
+    }
+    let level = load::load_level(&args.input)?;
+    let tree = BspTree::new(&level)?;
+    let pvs = pvs::level_pvs(&level)?;
+    let (w, h) = size(&args.size)?;
+    let (yaw, pitch) = args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
+    let mut outcome = Outcome::Clean;
+    let image = if let Some(eye) = &args.view {
+        let camera = Camera { eye: vec3(eye, "--view")?, yaw, pitch, fov: args.fov, width: w, height: h };
+        let v = render_view(&tree, &camera, args.pvs.then_some(&pvs))?;
+        println!(
+            "eye leaf {} (cluster {}), {} leaves shown, {} red pixels",
+            v.eye_leaf,
+            v.eye_cluster,
+            v.leaves_shown.len(),
+            if args.pvs { v.red_pixels.to_string() } else { "unchecked".into() }
+        );
+        if v.red_pixels > 0 {
+            outcome = Outcome::Finding;
+        }
+        v.image
+    } else if args.pvs_matrix {
+        matrix::render_matrix(&pvs, None, w.max(h).min(2048))
+    } else {
+        let from = args.from.as_deref().map(|s| vec3(s, "--from")).transpose()?;
+        let leak = match &args.leak {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+                read_pointfile(&text, &p.display().to_string())?
+            }
+            None => Vec::new(),
+        };
+        let centre_z = from.or(leak.first().copied()).map_or(0.0, |p| p.z);
+        let z = match &args.z {
+            Some(s) => pair(s, "..", "--z")?,
+            None if from.is_none() && leak.is_empty() => (-1e5, 1e5),
+            None => (centre_z - 64.0, centre_z + 64.0),
+        };
+        let mut portals: Vec<Vec<DVec3>> = level
+            .portals
+            .iter()
+            .filter_map(|p| {
+                let first = p.first_vertex as usize;
+                level.vertices.get(first..first + p.num_vertices as usize)
+            })
+            .map(|v| v.iter().map(|c| DVec3::from(c.map(f64::from))).collect())
+            .collect();
+        if let Some(prt) = &args.prt {
+            let text = std::fs::read_to_string(prt).with_context(|| format!("reading {}", prt.display()))?;
+            let file = sightline_formats::prt::read(&text, &prt.display().to_string())?;
+            portals.extend(file.portals.into_iter().map(|p| p.winding.points));
+        }
+        let camera = match (from, &args.look) {
+            (Some(eye), Some(_)) => Some(Camera { eye, yaw, pitch, fov: args.fov, width: w, height: h }),
+            _ => None,
+        };
+        let opts = PlanOptions { from, z, camera, width: w, portals, leak };
+        let plan = render_plan(&tree, from.map(|_| &pvs), &opts)?;
+        println!("{} PVS leaves, {} in the frustum", plan.pvs_leaves.len(), plan.frustum_leaves.len());
+        plan.image
+    };
+    image.save(&args.output)?;
+    println!("wrote {} ({}x{})", args.output.display(), image.width, image.height);
+    Ok(outcome)
 }

@@ -1,0 +1,149 @@
+//! What a brush is made of, decided from its texture names as Quake's tools do, and what an entity
+//! contributes to the level.
+//!
+//! Rules (first match wins, over all sides of a brush):
+//! - a side textured `*lava…` makes lava, `*slime…` slime, any other `*…` water;
+//! - `sky…` makes sky (drawn as sky, sight passes through, the outside flood stops at it);
+//! - `hint…`: a hint brush: not solid, its hint sides are splitters chosen before any other;
+//! - `clip…`: blocks movement only, so it makes no faces and does not block sight;
+//! - `trigger…`: a trigger volume: no faces, not solid;
+//! - anything else is solid. A `skip…` side of any brush makes no face.
+
+use sightline_formats::Contents;
+
+/// The kind of a brush, from its textures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BrushKind {
+    /// Fills its leaves with these contents and draws faces.
+    Contents(Contents),
+    /// A hint brush: splits the tree with its hint sides, otherwise empty.
+    Hint,
+    /// Player clip: neither faces nor sight blocking.
+    Clip,
+    /// Trigger volume: neither faces nor sight blocking.
+    Trigger,
+}
+
+fn lower_starts(name: &str, prefix: &str) -> bool {
+    name.len() >= prefix.len() && name.as_bytes()[..prefix.len()].eq_ignore_ascii_case(prefix.as_bytes())
+}
+
+/// True when a side with this texture makes no drawn face (tool textures).
+pub fn is_nodraw_texture(name: &str) -> bool {
+    ["skip", "hint", "clip", "trigger", "origin"].iter().any(|p| lower_starts(name, p))
+}
+
+/// True for a hint side.
+pub fn is_hint_texture(name: &str) -> bool {
+    lower_starts(name, "hint")
+}
+
+/// The kind of a brush with sides textured `textures`.
+pub fn brush_kind<'a, I: IntoIterator<Item = &'a str>>(textures: I) -> BrushKind {
+    let (mut liquid, mut sky, mut hint, mut clip, mut trigger, mut other) =
+        (None, false, false, false, false, false);
+    for t in textures {
+        if let Some(rest) = t.strip_prefix('*') {
+            let c = if lower_starts(rest, "lava") {
+                Contents::Lava
+            } else if lower_starts(rest, "slime") {
+                Contents::Slime
+            } else {
+                Contents::Water
+            };
+            liquid.get_or_insert(c);
+        } else if lower_starts(t, "sky") {
+            sky = true;
+        } else if lower_starts(t, "hint") {
+            hint = true;
+        } else if lower_starts(t, "clip") {
+            clip = true;
+        } else if lower_starts(t, "trigger") {
+            trigger = true;
+        } else if !lower_starts(t, "skip") {
+            other = true;
+        }
+    }
+    if let Some(c) = liquid {
+        BrushKind::Contents(c)
+    } else if sky {
+        BrushKind::Contents(Contents::Sky)
+    } else if hint {
+        BrushKind::Hint
+    } else if clip && !other {
+        BrushKind::Clip
+    } else if trigger && !other {
+        BrushKind::Trigger
+    } else {
+        BrushKind::Contents(Contents::Solid)
+    }
+}
+
+/// Priority when several brushes share a leaf: the highest wins.
+pub fn priority(c: Contents) -> u8 {
+    match c {
+        Contents::Empty => 0,
+        Contents::Water => 1,
+        Contents::Slime => 2,
+        Contents::Lava => 3,
+        Contents::Sky => 4,
+        Contents::Solid => 5,
+    }
+}
+
+/// True for contents that stop the outside flood (solid rock and sky, as Quake's qbsp).
+pub fn blocks_outside(c: Contents) -> bool {
+    matches!(c, Contents::Solid | Contents::Sky)
+}
+
+/// What an entity's brushes become.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EntityRole {
+    /// `worldspawn` and `func_group`: structural world brushes.
+    World,
+    /// `func_detail` family: drawn world brushes that do not split the tree.
+    Detail,
+    /// Any other entity with brushes: its own submodel.
+    Submodel,
+    /// A point entity.
+    Point,
+}
+
+/// The role of an entity by class name and whether it has brushes.
+pub fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
+    match classname {
+        "worldspawn" | "func_group" => EntityRole::World,
+        "func_detail" | "func_detail_wall" | "func_detail_illusionary" | "func_detail_fence" => {
+            EntityRole::Detail
+        }
+        _ if has_brushes => EntityRole::Submodel,
+        _ => EntityRole::Point,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quake_texture_rules() {
+        assert_eq!(brush_kind(["*lava1", "*lava1"]), BrushKind::Contents(Contents::Lava));
+        assert_eq!(brush_kind(["*slime0"]), BrushKind::Contents(Contents::Slime));
+        assert_eq!(brush_kind(["*04water1", "wall"]), BrushKind::Contents(Contents::Water));
+        assert_eq!(brush_kind(["sky4", "wall"]), BrushKind::Contents(Contents::Sky));
+        assert_eq!(brush_kind(["CLIP", "clip"]), BrushKind::Clip);
+        assert_eq!(brush_kind(["trigger"]), BrushKind::Trigger);
+        assert_eq!(brush_kind(["hint", "skip"]), BrushKind::Hint);
+        assert_eq!(brush_kind(["wbrick1_5", "skip"]), BrushKind::Contents(Contents::Solid));
+        assert!(is_nodraw_texture("SKIP"));
+        assert!(!is_nodraw_texture("sky1"));
+    }
+
+    #[test]
+    fn entity_roles() {
+        assert_eq!(entity_role("func_group", true), EntityRole::World);
+        assert_eq!(entity_role("func_detail", true), EntityRole::Detail);
+        assert_eq!(entity_role("func_door", true), EntityRole::Submodel);
+        assert_eq!(entity_role("light", false), EntityRole::Point);
+    }
+}

@@ -1,0 +1,199 @@
+//! From a parsed `.map` to brushes with windings, CSG faces, seeds and the entity text.
+
+use std::collections::HashMap;
+
+use sightline_formats::geom::WORLD_LIMIT;
+use sightline_formats::map::{Entity, MapFile};
+use sightline_formats::{Contents, PlaneSet};
+
+use crate::brush::{Brush, BrushProblem, NO_TEXTURE, SideSpec};
+use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role, is_hint_texture, is_nodraw_texture};
+use crate::csg::{CsgBrush, clip_faces};
+use crate::outside::Seed;
+use crate::{CompileError, Prepared, Progress, Source, Stats};
+
+/// Class and line of entity `index` (for messages).
+pub(crate) fn entity_info(source: &Source, index: usize) -> (String, u32) {
+    match source {
+        Source::Map { map, .. } => {
+            map.entities.get(index).map(|e| (e.classname().to_string(), e.line)).unwrap_or_default()
+        }
+        Source::Mesh { .. } => (String::new(), 0),
+    }
+}
+
+fn entity_text(out: &mut String, e: &Entity, model: Option<usize>) {
+    out.push_str("{\n");
+    for (k, v) in &e.properties {
+        if model.is_some() && k == "model" {
+            continue;
+        }
+        out.push_str(&format!("\"{k}\" \"{v}\"\n"));
+    }
+    if let Some(m) = model {
+        out.push_str(&format!("\"model\" \"*{m}\"\n"));
+    }
+    out.push_str("}\n");
+}
+
+pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Result<Prepared, CompileError> {
+    let Some(first) = map.entities.first() else {
+        return Err(CompileError::NoEntities { file: file.to_string() });
+    };
+    if first.classname() != "worldspawn" {
+        return Err(CompileError::NoWorldspawn {
+            file: file.to_string(),
+            line: first.line,
+            classname: first.classname().to_string(),
+        });
+    }
+    let total: usize = map.entities.iter().map(|e| e.brushes.len()).sum();
+    progress.begin("csg", total as u64);
+
+    let mut planes = PlaneSet::new();
+    let mut textures: Vec<String> = Vec::new();
+    let mut texture_index: HashMap<String, u32> = HashMap::new();
+    let mut world: Vec<CsgBrush> = Vec::new();
+    let mut structural: Vec<Brush> = Vec::new();
+    let mut submodels: Vec<Vec<CsgBrush>> = Vec::new();
+    let mut seeds = Vec::new();
+    let mut entities = String::new();
+    let mut stats = Stats { brushes: total, ..Stats::default() };
+
+    for (ei, e) in map.entities.iter().enumerate() {
+        let role = entity_role(e.classname(), !e.brushes.is_empty());
+        if ei > 0
+            && let Some(origin) = e.origin()
+        {
+            if origin.abs().max_element() > WORLD_LIMIT {
+                return Err(CompileError::HugeCoordinate {
+                    file: file.to_string(),
+                    line: e.line,
+                    what: format!("the origin of `{}`", e.classname()),
+                });
+            }
+            seeds.push(Seed { point: origin, entity: ei });
+        }
+        let model = match role {
+            EntityRole::Submodel => {
+                submodels.push(Vec::new());
+                Some(submodels.len())
+            }
+            _ => None,
+        };
+        if ei == 0 || matches!(role, EntityRole::Submodel | EntityRole::Point) {
+            entity_text(&mut entities, e, model);
+        }
+        for (bi, b) in e.brushes.iter().enumerate() {
+            progress.advance(1);
+            let bad = |problem: &str| CompileError::BadBrush {
+                file: file.to_string(),
+                line: b.line,
+                entity: ei,
+                classname: e.classname().to_string(),
+                brush: bi,
+                problem: problem.to_string(),
+            };
+            let kind = brush_kind(b.sides.iter().map(|s| s.texture.as_str()));
+            let contents = match kind {
+                BrushKind::Contents(c) => c,
+                BrushKind::Hint => Contents::Empty,
+                BrushKind::Clip | BrushKind::Trigger => continue,
+            };
+            let mut specs = Vec::with_capacity(b.sides.len());
+            for s in &b.sides {
+                if s.points.iter().any(|p| !p.is_finite() || p.abs().max_element() > WORLD_LIMIT) {
+                    return Err(CompileError::HugeCoordinate {
+                        file: file.to_string(),
+                        line: s.line,
+                        what: format!("a point of entity {ei} (`{}`) brush {bi}", e.classname()),
+                    });
+                }
+                specs.push(SideSpec { plane: planes.insert(s.plane) as u32, hint: is_hint_texture(&s.texture) });
+            }
+            let (brush, side_map) = Brush::from_planes(&planes, &specs, contents).map_err(|p| match p {
+                BrushProblem::AllDegenerate => {
+                    bad("every side is degenerate: the planes enclose no volume")
+                }
+                BrushProblem::Unbounded => bad(&format!(
+                    "the planes do not close the brush, or it reaches beyond ±{WORLD_LIMIT} units"
+                )),
+            })?;
+            if brush.sides.len() < 4 {
+                stats.warnings.push(format!(
+                    "{file}:{}: entity {ei} brush {bi} keeps only {} sides with area; skipped",
+                    b.line,
+                    brush.sides.len()
+                ));
+                continue;
+            }
+            let mut side_textures = vec![NO_TEXTURE; brush.sides.len()];
+            for (spec_i, s) in b.sides.iter().enumerate() {
+                let Some(Some(side_i)) = side_map.get(spec_i) else { continue };
+                if kind == BrushKind::Hint || is_nodraw_texture(&s.texture) {
+                    continue;
+                }
+                let next = textures.len() as u32;
+                let t = *texture_index.entry(s.texture.clone()).or_insert_with(|| {
+                    textures.push(s.texture.clone());
+                    next
+                });
+                if let Some(slot) = side_textures.get_mut(*side_i) {
+                    *slot = t;
+                }
+            }
+            match role {
+                EntityRole::World => {
+                    stats.world_brushes += 1;
+                    let mut tree_brush = brush.clone();
+                    if kind == BrushKind::Hint {
+                        // Only the hint sides of a hint brush split the tree.
+                        for s in &mut tree_brush.sides {
+                            s.used = !s.hint;
+                        }
+                    }
+                    structural.push(tree_brush);
+                    world.push(CsgBrush { brush, textures: side_textures, model: 0 });
+                }
+                EntityRole::Detail => {
+                    stats.detail_brushes += 1;
+                    // A hint inside func_detail makes no sense: drop it.
+                    if kind != BrushKind::Hint {
+                        structural.push(Brush { detail: true, ..brush.clone() });
+                        world.push(CsgBrush { brush, textures: side_textures, model: 0 });
+                    }
+                }
+                EntityRole::Submodel | EntityRole::Point => {
+                    let m = submodels.len();
+                    if let Some(list) = submodels.last_mut() {
+                        list.push(CsgBrush { brush, textures: side_textures, model: m as u32 });
+                    }
+                }
+            }
+        }
+    }
+    let world_faces = clip_faces(&planes, &world);
+    stats.submodels = submodels.len();
+    let submodels: Vec<(Vec<Brush>, Vec<crate::csg::CsgFace>)> = submodels
+        .into_iter()
+        .map(|list| {
+            let faces = clip_faces(&planes, &list);
+            // Hint brushes make no sense in a submodel; empty brushes would only add splits.
+            let brushes = list.into_iter().map(|c| c.brush).filter(|b| b.contents != Contents::Empty).collect();
+            (brushes, faces)
+        })
+        .collect();
+    stats.csg_faces = world_faces.len() + submodels.iter().map(|(_, f)| f.len()).sum::<usize>();
+    Ok(Prepared {
+        planes,
+        structural,
+        world_faces,
+        submodels,
+        seeds,
+        entities,
+        textures,
+        stats,
+        tree: None,
+        fill: true,
+    })
+}

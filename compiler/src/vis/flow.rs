@@ -1,0 +1,197 @@
+//! Full vis: depth-first flow from one one-way portal through the clusters in front of it.
+//!
+//! A stack frame holds the cluster reached, the (clipped) source and pass windings and the portals
+//! still possibly visible (`might`). For every portal `p` leaving the cluster: `might` narrows to
+//! the portals `p` itself might see (or finally sees, once `p` is done); the branch dies when that
+//! adds nothing new and `p` is already known visible. Otherwise `p` (the target) is clipped to the
+//! front of the source portal and of the pass portal, the source to the back of `p`, and then, by
+//! level: 1 the target by separators (source edge, pass vertex); 2 also (pass edge, source vertex);
+//! 3 the source by separators (target edge, pass vertex); 4 also (pass edge, target vertex).
+//! Separators of an unchanged (source, pass) pair are computed once per frame and reused for every
+//! target of the frame. All clips round toward visible (see [`super::poly`]).
+
+use sightline_formats::geom::Plane;
+
+use super::bits;
+use super::graph::Graph;
+use super::poly::{CLIP_EPSILON, Clip, Poly, Sphere, clip_to_separators, for_each_separator};
+
+/// Normals whose dot product is at most `-1 + this` are opposite: a line that entered through one
+/// cannot leave through the other.
+const OPPOSITE_EPSILON: f64 = 1e-12;
+
+/// The source portal of a flow: its plane (normal forward) and a sphere holding it.
+#[derive(Debug, Clone, Copy)]
+struct Head {
+    plane: Plane,
+    bound: Sphere,
+}
+
+#[derive(Debug, Clone, Default)]
+struct Frame {
+    /// Cluster reached.
+    leaf: u32,
+    /// Plane of the portal that led here (normal into `leaf`).
+    plane: Option<Plane>,
+    source: Poly,
+    pass: Poly,
+    might: Vec<u64>,
+    /// Separators of (`source`, `pass`): normal order then flipped order.
+    seps: [Vec<Plane>; 2],
+    seps_ready: bool,
+}
+
+/// Per-thread flow state, reused from portal to portal (no allocation once frames exist).
+#[derive(Debug)]
+pub struct Flow {
+    frames: Vec<Frame>,
+    tmp: Poly,
+    vis: Vec<u64>,
+    words: usize,
+    level: u8,
+    /// Recursive calls made (portal chains visited).
+    pub chains: u64,
+}
+
+impl Flow {
+    /// State for rows of `words` words and separator `level` 0..=4.
+    pub fn new(words: usize, level: u8) -> Self {
+        Self { frames: Vec::new(), tmp: Poly::default(), vis: vec![0; words], words, level, chains: 0 }
+    }
+
+    fn frame(&mut self, d: usize) {
+        while self.frames.len() <= d {
+            self.frames.push(Frame { might: vec![0; self.words], ..Frame::default() });
+        }
+    }
+
+    /// The portals visible through portal `base`; `test` holds per portal its final vis when done,
+    /// else its `mightsee` (`words` words per portal). Writes the result into `out`.
+    pub fn run(&mut self, g: &Graph, test: &[u64], base: usize, out: &mut [u64]) {
+        self.vis.fill(0);
+        let p = &g.portals[base];
+        self.frame(0);
+        let f = &mut self.frames[0];
+        f.leaf = p.leaf;
+        f.plane = Some(p.plane);
+        f.source.load(g.winding(p));
+        f.pass.n = 0;
+        f.might.copy_from_slice(&test[base * self.words..(base + 1) * self.words]);
+        f.seps_ready = false;
+        let head = Head { plane: p.plane, bound: Sphere { center: p.center, radius: p.radius } };
+        self.recurse(g, test, 0, &head);
+        out.copy_from_slice(&self.vis);
+    }
+
+    fn recurse(&mut self, g: &Graph, test: &[u64], d: usize, head: &Head) {
+        self.chains += 1;
+        let words = self.words;
+        self.frame(d + 1);
+        let leaf = self.frames[d].leaf as usize;
+        for &pi in &g.cluster_portals[leaf] {
+            let pi = pi as usize;
+            if !bits::get(&self.frames[d].might, pi) {
+                continue;
+            }
+            let p = &g.portals[pi];
+            let (lo, hi) = self.frames.split_at_mut(d + 1);
+            let (prev, next) = (&mut lo[d], &mut hi[0]);
+            let trow = &test[pi * words..(pi + 1) * words];
+            let mut more = 0u64;
+            for ((m, (&a, &b)), &v) in next.might.iter_mut().zip(prev.might.iter().zip(trow)).zip(&self.vis) {
+                *m = a & b;
+                more |= *m & !v;
+            }
+            // Nothing new beyond `p`: only whether `p` itself is visible is left to decide.
+            let deeper = more != 0;
+            if !deeper && bits::get(&self.vis, pi) {
+                continue;
+            }
+            let Some(prev_plane) = prev.plane else { continue };
+            if p.plane.normal.dot(prev_plane.normal) <= -1.0 + OPPOSITE_EPSILON {
+                continue; // straight back out through the way in
+            }
+            // Target: in front of the source portal (quick sphere test first).
+            let tmp = &mut self.tmp;
+            next.pass.load(g.winding(p));
+            let target = Sphere { center: p.center, radius: p.radius };
+            if next.pass.clip_in(&target, &head.plane, CLIP_EPSILON, tmp) == Clip::Gone {
+                continue;
+            }
+            // Source: behind the target.
+            next.source.copy_from(&prev.source);
+            let back = p.plane.flipped();
+            let source_clip = next.source.clip_in(&head.bound, &back, CLIP_EPSILON, tmp);
+            if source_clip == Clip::Gone {
+                continue;
+            }
+            next.leaf = p.leaf;
+            next.plane = Some(p.plane);
+            next.seps_ready = false;
+            if d > 0 {
+                // Target: in front of the pass portal.
+                if next.pass.clip_in(&target, &prev_plane, CLIP_EPSILON, tmp) == Clip::Gone {
+                    continue;
+                }
+                if !clip_target(self.level, prev, next, source_clip, &target, tmp) {
+                    continue;
+                }
+                // Tests 3 and 4 narrow the source for the frames below; without them the target
+                // stays visible (keeping more), so they only run when the flow goes deeper.
+                if deeper
+                    && self.level > 2
+                    && !clip_to_separators(&next.pass, &prev.pass, false, &mut next.source, &head.bound, tmp)
+                {
+                    continue;
+                }
+                if deeper
+                    && self.level > 3
+                    && !clip_to_separators(&prev.pass, &next.pass, true, &mut next.source, &head.bound, tmp)
+                {
+                    continue;
+                }
+            }
+            bits::set(&mut self.vis, pi);
+            if deeper {
+                self.recurse(g, test, d + 1, head);
+            }
+        }
+    }
+}
+
+/// Tests 1 and 2 (by level): clip the target (`next.pass`) by the separators of the source and
+/// the pass portal, from the frame's cache when the source was not changed for this target.
+fn clip_target(level: u8, prev: &mut Frame, next: &mut Frame, source_clip: Clip, target: &Sphere, tmp: &mut Poly) -> bool {
+    if level == 0 {
+        return true;
+    }
+    if source_clip == Clip::Whole {
+        if !prev.seps_ready {
+            for (k, flip) in [false, true].into_iter().enumerate() {
+                prev.seps[k].clear();
+                if k == 1 && level < 2 {
+                    break;
+                }
+                let (a, b) = if flip { (&prev.pass, &prev.source) } else { (&prev.source, &prev.pass) };
+                let list = &mut prev.seps[k];
+                for_each_separator(a, b, flip, |plane| {
+                    list.push(*plane);
+                    true
+                });
+            }
+            prev.seps_ready = true;
+        }
+        for list in &prev.seps {
+            for plane in list {
+                if next.pass.clip_in(target, plane, CLIP_EPSILON, tmp) == Clip::Gone {
+                    return false;
+                }
+            }
+        }
+        return true;
+    }
+    if !clip_to_separators(&next.source, &prev.pass, false, &mut next.pass, target, tmp) {
+        return false;
+    }
+    level < 2 || clip_to_separators(&prev.pass, &next.source, true, &mut next.pass, target, tmp)
+}

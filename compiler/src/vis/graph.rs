@@ -1,0 +1,96 @@
+//! One-way portals built from a portal file.
+//!
+//! Portal line `i` joining clusters `A` (the side its winding faces) and `B` becomes one-way
+//! portal `2i`, stored in `A` and leading to `B`, whose plane is the negated winding plane (its
+//! normal points into `B`, the neighbour it leads to), and one-way portal `2i + 1`, stored in `B`
+//! and leading to `A`, with the winding reversed and the winding plane (pointing into `A`).
+//! "In front of a one-way portal" therefore means "on the side of the cluster it leads to".
+//! Lines whose winding has no plane (zero area) or that join a cluster to itself pass no sight
+//! line and are dropped (counted in [`Graph::dropped`]).
+
+use glam::DVec3;
+use sightline_formats::geom::Plane;
+use sightline_formats::prt::PortalFile;
+
+/// A one-way portal.
+#[derive(Debug, Clone)]
+pub struct OneWay {
+    /// Plane whose normal points into [`OneWay::leaf`].
+    pub plane: Plane,
+    /// The cluster it leads to.
+    pub leaf: u32,
+    /// Range of its points in [`Graph::points`].
+    pub start: u32,
+    /// Number of points.
+    pub len: u32,
+    /// Centre of its bounding sphere.
+    pub center: DVec3,
+    /// Radius of its bounding sphere.
+    pub radius: f64,
+}
+
+/// All one-way portals and, per cluster, the portals stored in it.
+#[derive(Debug, Clone)]
+pub struct Graph {
+    /// One-way portals.
+    pub portals: Vec<OneWay>,
+    /// Winding points of every portal, back to back.
+    pub points: Vec<DVec3>,
+    /// Per cluster, the indices of the one-way portals leading out of it.
+    pub cluster_portals: Vec<Vec<u32>>,
+    /// Portal lines dropped (no plane, or joining a cluster to itself).
+    pub dropped: usize,
+}
+
+impl Graph {
+    /// Build the one-way portals; cluster numbers must already be checked against
+    /// `prt.num_clusters` (the `.prt` reader does).
+    pub fn new(prt: &PortalFile) -> Self {
+        let num_clusters = prt.num_clusters as usize;
+        let mut g = Graph {
+            portals: Vec::with_capacity(prt.portals.len() * 2),
+            points: Vec::new(),
+            cluster_portals: vec![Vec::new(); num_clusters],
+            dropped: 0,
+        };
+        for line in &prt.portals {
+            let [a, b] = line.leaves;
+            let plane = line.winding.plane();
+            let (Some(plane), true) = (plane, a != b && (a as usize) < num_clusters && (b as usize) < num_clusters)
+            else {
+                g.dropped += 1;
+                continue;
+            };
+            let pts = &line.winding.points;
+            let mut reversed = pts.clone();
+            reversed.reverse();
+            g.push(plane.flipped(), b, a, pts);
+            g.push(plane, a, b, &reversed);
+        }
+        g
+    }
+
+    fn push(&mut self, plane: Plane, leaf: u32, owner: u32, pts: &[DVec3]) {
+        let center = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
+        let radius = pts.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
+        let index = self.portals.len() as u32;
+        self.portals.push(OneWay {
+            plane,
+            leaf,
+            start: self.points.len() as u32,
+            len: pts.len() as u32,
+            center,
+            radius,
+        });
+        self.points.extend_from_slice(pts);
+        if let Some(list) = self.cluster_portals.get_mut(owner as usize) {
+            list.push(index);
+        }
+    }
+
+    /// The winding points of portal `i`.
+    #[inline]
+    pub fn winding(&self, p: &OneWay) -> &[DVec3] {
+        &self.points[p.start as usize..(p.start + p.len) as usize]
+    }
+}

@@ -1,0 +1,457 @@
+//! Vis: cluster-to-cluster visibility (the PVS) from a portal file, by portal flow with
+//! antipenumbra (separating plane) clipping.
+//!
+//! Phases: [`graph`] turns each portal line into two one-way portals; [`base`] computes each
+//! portal's `mightsee` (`--fast` stops there); [`flow`] clips windings through chains of portals,
+//! one source portal at a time; then each cluster's row is the union of what its portals see plus
+//! the clusters they lead to and itself.
+//!
+//! # Guarantees
+//! - **Never blocks a real sight line** (up to floating point): every clip keeps a
+//!   [`poly::CLIP_EPSILON`] band beyond its plane, separating planes are accepted only when they
+//!   separate within [`poly::SEPARATOR_EPSILON`], and only portals within
+//!   [`base::COPLANAR_EPSILON`] of a plane are taken as lying in it, so a leaf 0.01 units thick or
+//!   nearly coplanar portals pass sight.
+//! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
+//!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
+//! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
+//!   [`FLOW_BATCH`]; a portal uses the final rows of portals from earlier batches only (in place
+//!   of their `mightsee`), so the output is the same for any thread count and any timing.
+//! - **Resumable**: with [`VisOptions::state`], finished batches are checkpointed and a rerun
+//!   continues after them, producing the same result as an uninterrupted run.
+
+mod base;
+mod bits;
+mod flow;
+mod graph;
+mod poly;
+mod state;
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+use sightline_formats::prt::PortalFile;
+
+pub use base::COPLANAR_EPSILON;
+pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON};
+
+/// Portals per deterministic flow batch (a portal sees the results of earlier batches only).
+pub const FLOW_BATCH: usize = 48;
+
+/// Options of [`run`].
+#[derive(Debug, Clone)]
+pub struct VisOptions {
+    /// Stop after base vis (`mightsee`), like the reference `-fast`.
+    pub fast: bool,
+    /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
+    pub level: u8,
+    /// Worker threads; 0 uses every core.
+    pub threads: usize,
+    /// Checkpoint file: loaded when present (resume), written every `checkpoint_interval`.
+    pub state: Option<PathBuf>,
+    /// Time between checkpoints.
+    pub checkpoint_interval: Duration,
+    /// Stop (with [`VisError::Interrupted`], after a checkpoint) once at least this many flow
+    /// portals are finished: for tests of resuming.
+    pub stop_after: Option<usize>,
+}
+
+impl Default for VisOptions {
+    fn default() -> Self {
+        Self {
+            fast: false,
+            level: 4,
+            threads: 0,
+            state: None,
+            checkpoint_interval: Duration::from_secs(180),
+            stop_after: None,
+        }
+    }
+}
+
+/// Which phase a progress report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum VisPhase {
+    /// Base vis (`mightsee`).
+    Base,
+    /// Full flow.
+    Flow,
+}
+
+/// A progress report: `done` of `total` portals finished in `phase`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VisProgress {
+    /// The phase.
+    pub phase: VisPhase,
+    /// Portals finished (counting resumed ones).
+    pub done: usize,
+    /// Portals in the phase.
+    pub total: usize,
+}
+
+/// What went wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum VisError {
+    /// The portal file is inconsistent.
+    #[error("invalid portal file: {0}")]
+    Invalid(String),
+    /// An option is out of range.
+    #[error("invalid option: {0}")]
+    Option(String),
+    /// A checkpoint could not be read or written, or belongs to another input.
+    #[error("vis state: {0}")]
+    State(String),
+    /// Stopped on request after `done` flow portals; the state file holds them.
+    #[error("stopped after {done} of {total} portals (state saved)")]
+    Interrupted {
+        /// Flow portals finished.
+        done: usize,
+        /// Flow portals in all.
+        total: usize,
+    },
+    /// The thread pool could not be built.
+    #[error("thread pool: {0}")]
+    Threads(String),
+}
+
+/// Measurements of a run.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct VisStats {
+    /// Vis leaves.
+    pub leaves: u32,
+    /// Clusters.
+    pub clusters: u32,
+    /// Portal lines in the input.
+    pub portals: usize,
+    /// Portal lines dropped (no area, or joining a cluster to itself).
+    pub dropped_portals: usize,
+    /// Separator level used.
+    pub level: u8,
+    /// True for base vis only.
+    pub fast: bool,
+    /// Worker threads.
+    pub threads: usize,
+    /// Average visible leaves per leaf (itself included).
+    pub avg_visible: f64,
+    /// Median visible leaves per leaf.
+    pub median_visible: f64,
+    /// Largest visible leaves of a leaf.
+    pub max_visible: u32,
+    /// `avg_visible` as a percentage of all leaves.
+    pub percent_visible: f64,
+    /// Sum over leaves of visible leaves.
+    pub visible_pairs: u64,
+    /// Average leaves visible after base vis alone.
+    pub avg_mightsee: f64,
+    /// Recursive flow calls (portal chains visited).
+    pub chains: u64,
+    /// Flow portals taken from a state file.
+    pub resumed_portals: usize,
+    /// Seconds in base vis.
+    pub base_seconds: f64,
+    /// Seconds in the flow.
+    pub flow_seconds: f64,
+    /// Seconds building cluster rows.
+    pub rows_seconds: f64,
+}
+
+/// The PVS: one row per cluster (bits over clusters), expandable to leaves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisResult {
+    num_leaves: usize,
+    leaf_clusters: Vec<u32>,
+    cluster_leaves: Vec<Vec<u32>>,
+    words: usize,
+    rows: Vec<u64>,
+    /// Measurements.
+    pub stats: VisStats,
+}
+
+impl VisResult {
+    /// Number of vis leaves.
+    pub fn num_leaves(&self) -> usize {
+        self.num_leaves
+    }
+
+    /// Number of clusters.
+    pub fn num_clusters(&self) -> usize {
+        self.cluster_leaves.len()
+    }
+
+    /// Cluster of each leaf.
+    pub fn leaf_clusters(&self) -> &[u32] {
+        &self.leaf_clusters
+    }
+
+    /// Row of cluster `c`: bit `k` (word `k / 64`, bit `k % 64`) set when cluster `k` is visible.
+    pub fn cluster_row(&self, c: usize) -> &[u64] {
+        &self.rows[c * self.words..(c + 1) * self.words]
+    }
+
+    /// True when cluster `a` sees cluster `b`.
+    pub fn cluster_sees(&self, a: usize, b: usize) -> bool {
+        a < self.num_clusters() && bits::get(self.cluster_row(a), b)
+    }
+
+    /// True when leaf `a` sees leaf `b` (false for leaves out of range).
+    pub fn leaf_sees(&self, a: usize, b: usize) -> bool {
+        match (self.leaf_clusters.get(a), self.leaf_clusters.get(b)) {
+            (Some(&ca), Some(&cb)) => self.cluster_sees(ca as usize, cb as usize),
+            _ => false,
+        }
+    }
+
+    /// Leaf `leaf`'s row in Quake's byte layout, uncompressed: byte `j >> 3`, bit `j & 7` set when
+    /// vis leaf `j` is visible (Quake: BSP leaf `j + 1`). `out` is cleared and sized
+    /// `(num_leaves + 7) / 8`.
+    pub fn leaf_row_bytes(&self, leaf: usize, out: &mut Vec<u8>) {
+        out.clear();
+        out.resize(self.num_leaves.div_ceil(8), 0);
+        let Some(&c) = self.leaf_clusters.get(leaf) else { return };
+        for k in bits::ones(self.cluster_row(c as usize)) {
+            for &j in &self.cluster_leaves[k] {
+                out[j as usize >> 3] |= 1 << (j & 7);
+            }
+        }
+    }
+
+    /// Number of leaves leaf `leaf` sees (itself included).
+    pub fn visible_leaves(&self, leaf: usize) -> u32 {
+        let Some(&c) = self.leaf_clusters.get(leaf) else { return 0 };
+        bits::ones(self.cluster_row(c as usize)).map(|k| self.cluster_leaves[k].len() as u32).sum()
+    }
+}
+
+/// Compute the PVS of a portal file. `progress` is called (from worker threads) as portals finish.
+pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &(dyn Fn(VisProgress) + Sync)) -> Result<VisResult, VisError> {
+    if opts.level > 4 {
+        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
+    }
+    check(prt)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| VisError::Threads(e.to_string()))?;
+    let threads = pool.current_num_threads();
+    let mut result = pool.install(|| run_in_pool(prt, opts, progress))?;
+    result.stats.threads = threads;
+    Ok(result)
+}
+
+fn check(prt: &PortalFile) -> Result<(), VisError> {
+    if prt.leaf_clusters.len() != prt.num_leaves as usize {
+        return Err(VisError::Invalid(format!(
+            "{} leaf clusters for {} leaves",
+            prt.leaf_clusters.len(),
+            prt.num_leaves
+        )));
+    }
+    if let Some(c) = prt.leaf_clusters.iter().find(|&&c| c >= prt.num_clusters) {
+        return Err(VisError::Invalid(format!("cluster {c} out of range ({} clusters)", prt.num_clusters)));
+    }
+    if let Some(p) = prt.portals.iter().find(|p| p.leaves.iter().any(|&c| c >= prt.num_clusters)) {
+        return Err(VisError::Invalid(format!("portal joins {:?}, out of range ({} clusters)", p.leaves, prt.num_clusters)));
+    }
+    Ok(())
+}
+
+/// Hash of the input and of the options that change flow rows.
+fn input_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
+    let text = sightline_formats::prt::write(prt);
+    let h = state::fnv1a(text.as_bytes(), state::FNV_OFFSET);
+    state::fnv1a(&[opts.level, FLOW_BATCH as u8], h)
+}
+
+fn run_in_pool(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    progress: &(dyn Fn(VisProgress) + Sync),
+) -> Result<VisResult, VisError> {
+    let t0 = Instant::now();
+    let g = graph::Graph::new(prt);
+    let n = g.portals.len();
+    let words = bits::words(n);
+    let counter = AtomicUsize::new(0);
+    let might = base::mightsee(&g, words, &|| {
+        let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
+        progress(VisProgress { phase: VisPhase::Base, done, total: n });
+    });
+    let base_seconds = t0.elapsed().as_secs_f64();
+    let mut stats = VisStats {
+        leaves: prt.num_leaves,
+        clusters: prt.num_clusters,
+        portals: prt.portals.len(),
+        dropped_portals: g.dropped,
+        level: opts.level,
+        fast: opts.fast,
+        base_seconds,
+        ..VisStats::default()
+    };
+    let t1 = Instant::now();
+    let portal_vis = if opts.fast {
+        might.clone()
+    } else {
+        flow_all(prt, &g, &might, words, opts, progress, &mut stats)?
+    };
+    stats.flow_seconds = t1.elapsed().as_secs_f64();
+    eprintln!("C {:?}", flow::C.iter().map(|a| a.load(Ordering::Relaxed)).collect::<Vec<_>>());
+    let t2 = Instant::now();
+    let mut result = cluster_rows(prt, &g, &portal_vis, words);
+    if !opts.fast {
+        stats.avg_mightsee = cluster_rows(prt, &g, &might, words).average_visible();
+    }
+    stats.rows_seconds = t2.elapsed().as_secs_f64();
+    result.fill_stats(&mut stats);
+    if opts.fast {
+        stats.avg_mightsee = stats.avg_visible;
+    }
+    result.stats = stats;
+    Ok(result)
+}
+
+/// Flow every portal in deterministic batches; returns the final portal rows.
+fn flow_all(
+    prt: &PortalFile,
+    g: &graph::Graph,
+    might: &[u64],
+    words: usize,
+    opts: &VisOptions,
+    progress: &(dyn Fn(VisProgress) + Sync),
+    stats: &mut VisStats,
+) -> Result<Vec<u64>, VisError> {
+    let n = g.portals.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
+    let mut test = might.to_vec();
+    let hash = input_hash(prt, opts);
+    let mut done = 0usize;
+    if let Some(path) = &opts.state
+        && let Some(st) = state::load(path, hash, n, words)?
+    {
+        done = st.done as usize;
+        for (k, &p) in order[..done].iter().enumerate() {
+            test[p * words..(p + 1) * words].copy_from_slice(&st.rows[k * words..(k + 1) * words]);
+        }
+        stats.chains = st.chains;
+        stats.resumed_portals = done;
+    }
+    let counter = AtomicUsize::new(done);
+    let mut last_save = Instant::now();
+    while done < n {
+        let batch = &order[done..(done + FLOW_BATCH).min(n)];
+        let rows: Vec<(Vec<u64>, u64)> = batch
+            .par_iter()
+            .map_init(
+                || flow::Flow::new(words, opts.level),
+                |f, &p| {
+                    let mut out = vec![0u64; words];
+                    f.chains = 0;
+                    f.run(g, &test, p, &mut out);
+                    let d = counter.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(VisProgress { phase: VisPhase::Flow, done: d, total: n });
+                    (out, f.chains)
+                },
+            )
+            .collect();
+        for (&p, (row, chains)) in batch.iter().zip(rows) {
+            test[p * words..(p + 1) * words].copy_from_slice(&row);
+            stats.chains += chains;
+        }
+        done += batch.len();
+        let stop = opts.stop_after.is_some_and(|s| done >= s) && done < n;
+        if let Some(path) = &opts.state
+            && (stop || (done < n && last_save.elapsed() >= opts.checkpoint_interval))
+        {
+            let rows: Vec<u64> = order[..done].iter().flat_map(|&p| test[p * words..(p + 1) * words].iter().copied()).collect();
+            state::save(path, &state::State::new(hash, n, words, done, rows, stats.chains))?;
+            last_save = Instant::now();
+        }
+        if stop {
+            return Err(VisError::Interrupted { done, total: n });
+        }
+    }
+    if let Some(path) = &opts.state {
+        // The run is complete: the checkpoint has served its purpose.
+        let _ = std::fs::remove_file(path);
+    }
+    Ok(test)
+}
+
+/// Cluster rows from portal rows: a cluster sees itself, every cluster its portals lead to, and
+/// every cluster a portal it owns sees; then `M ∧ Mᵀ`.
+fn cluster_rows(prt: &PortalFile, g: &graph::Graph, portal_vis: &[u64], words: usize) -> VisResult {
+    let nc = prt.num_clusters as usize;
+    let cw = bits::words(nc);
+    let mut rows = vec![0u64; nc * cw];
+    if cw > 0 {
+        rows.par_chunks_mut(cw).enumerate().for_each_init(
+            || vec![0u64; words],
+            |pv, (c, row)| {
+                pv.fill(0);
+                for &q in &g.cluster_portals[c] {
+                    let q = q as usize;
+                    for (a, b) in pv.iter_mut().zip(&portal_vis[q * words..(q + 1) * words]) {
+                        *a |= b;
+                    }
+                    bits::set(pv, q);
+                }
+                for q in bits::ones(pv) {
+                    bits::set(row, g.portals[q].leaf as usize);
+                }
+                bits::set(row, c);
+            },
+        );
+    }
+    // Symmetric by intersection with the transpose.
+    let snapshot = rows.clone();
+    if cw > 0 {
+        rows.par_chunks_mut(cw).enumerate().for_each(|(a, row)| {
+            let ones: Vec<usize> = bits::ones(row).collect();
+            for b in ones {
+                if !bits::get(&snapshot[b * cw..(b + 1) * cw], a) {
+                    bits::clear(row, b);
+                }
+            }
+        });
+    }
+    let mut cluster_leaves = vec![Vec::new(); nc];
+    for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
+        cluster_leaves[c as usize].push(leaf as u32);
+    }
+    VisResult {
+        num_leaves: prt.num_leaves as usize,
+        leaf_clusters: prt.leaf_clusters.clone(),
+        cluster_leaves,
+        words: cw,
+        rows,
+        stats: VisStats::default(),
+    }
+}
+
+impl VisResult {
+    fn average_visible(&self) -> f64 {
+        let total: u64 = (0..self.num_leaves).map(|l| u64::from(self.visible_leaves(l))).sum();
+        total as f64 / self.num_leaves.max(1) as f64
+    }
+
+    fn fill_stats(&self, stats: &mut VisStats) {
+        let mut counts: Vec<u32> = (0..self.num_leaves).map(|l| self.visible_leaves(l)).collect();
+        counts.sort_unstable();
+        let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
+        let n = counts.len();
+        stats.visible_pairs = total;
+        stats.avg_visible = total as f64 / n.max(1) as f64;
+        stats.max_visible = counts.last().copied().unwrap_or(0);
+        stats.median_visible = match n {
+            0 => 0.0,
+            _ if n % 2 == 1 => f64::from(counts[n / 2]),
+            _ => (f64::from(counts[n / 2 - 1]) + f64::from(counts[n / 2])) / 2.0,
+        };
+        stats.percent_visible = 100.0 * stats.avg_visible / n.max(1) as f64;
+    }
+}
+
+#[cfg(test)]
+mod tests;

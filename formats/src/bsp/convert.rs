@@ -1,0 +1,127 @@
+//! Turning a Quake BSP into Sightline's [`Level`].
+
+use super::Bsp;
+use crate::level::{Contents, Face, Leaf, Level, LevelPlane, Model, Node};
+use crate::rle;
+use std::collections::HashMap;
+
+/// Builds a [`Level`] from a validated BSP.
+///
+/// - Planes, nodes (children keep Quake's encoding), leaves and models map one to one; leaf `i`
+///   of the level is leaf `i` of the BSP, so leaf 0 is the shared solid leaf.
+/// - Clusters: the PVS of a BSP has one bit per vis leaf, so vis leaf `i` (`1..=visleafs`) gets
+///   cluster `i - 1` and `num_clusters = visleafs`. Leaf 0, solid leaves and the leaves of brush
+///   models (beyond `visleafs`) get cluster -1.
+/// - PVS: `pvs_data` is the BSP's visdata unchanged and `pvs_offsets[i - 1]` is leaf `i`'s
+///   `visofs`; leaves stored with `visofs == -1` ("see everything") share one all-visible row
+///   appended to `pvs_data`. A BSP without any row (no vis run) gives a level without PVS.
+/// - Faces become polygons with their own corner vertices (surfedges resolved). A face seen from
+///   the back of its plane gets a flipped copy of the plane, appended after the BSP's planes, so
+///   every level face is seen from its plane's front. Texture names come from the miptex
+///   directory; a texture missing from the file (offset -1) has an empty name.
+/// - Unknown contents codes (none of Quake's six) become [`Contents::Empty`] (open).
+/// - `leaf_faces` are the BSP's marksurfaces; the level has no portals and no GVS cells.
+pub fn to_level(bsp: &Bsp) -> Level {
+    let mut planes: Vec<LevelPlane> =
+        bsp.planes.iter().map(|p| LevelPlane { normal: p.normal, dist: p.dist }).collect();
+    let mut flipped: HashMap<u32, u32> = HashMap::new();
+
+    let textures: Vec<String> =
+        bsp.textures.iter().map(|t| t.as_ref().map(|t| t.name.clone()).unwrap_or_default()).collect();
+    let mut vertices = Vec::new();
+    let mut faces = Vec::with_capacity(bsp.faces.len());
+    for f in &bsp.faces {
+        let plane = if f.back {
+            *flipped.entry(f.plane).or_insert_with(|| {
+                let p = bsp.planes[f.plane as usize];
+                planes.push(LevelPlane { normal: p.normal.map(|c| -c), dist: -p.dist });
+                (planes.len() - 1) as u32
+            })
+        } else {
+            f.plane
+        };
+        let first_vertex = vertices.len() as u32;
+        vertices.extend(bsp.face_vertex_indices(f).map(|v| bsp.vertices[v as usize]));
+        let texture = bsp.texinfo[f.texinfo as usize].miptex;
+        faces.push(Face { plane, first_vertex, num_vertices: vertices.len() as u32 - first_vertex, texture });
+    }
+
+    let nodes = bsp
+        .nodes
+        .iter()
+        .map(|n| Node { plane: n.plane, children: n.children, mins: n.mins, maxs: n.maxs })
+        .collect();
+    let visleafs = bsp.visleafs();
+    let leaves = bsp
+        .leaves
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let contents = Contents::from_code(l.contents).unwrap_or(Contents::Empty);
+            let cluster =
+                if (1..=visleafs).contains(&i) && contents != Contents::Solid { i as i32 - 1 } else { -1 };
+            Leaf {
+                contents,
+                cluster,
+                mins: l.mins,
+                maxs: l.maxs,
+                first_face: l.first_marksurface,
+                num_faces: l.num_marksurfaces,
+            }
+        })
+        .collect();
+
+    let (pvs_offsets, pvs_data) = pvs(bsp, visleafs);
+    let models = bsp
+        .models
+        .iter()
+        .map(|m| Model {
+            head_node: m.head_nodes[0],
+            mins: m.mins,
+            maxs: m.maxs,
+            first_face: m.first_face,
+            num_faces: m.num_faces,
+        })
+        .collect();
+    Level {
+        entities: bsp.entities.clone(),
+        textures,
+        planes,
+        nodes,
+        leaves,
+        leaf_faces: bsp.marksurfaces.clone(),
+        faces,
+        vertices,
+        portals: Vec::new(),
+        models,
+        num_clusters: visleafs as u32,
+        pvs_offsets,
+        pvs_data,
+        gvs_cells: Vec::new(),
+        gvs_faces: Vec::new(),
+    }
+}
+
+/// Per-cluster row offsets and row data; empty when no vis leaf has a row.
+fn pvs(bsp: &Bsp, visleafs: usize) -> (Vec<u32>, Vec<u8>) {
+    let vis_leaves = bsp.leaves.get(1..=visleafs).unwrap_or_default();
+    if bsp.visdata.is_empty() || vis_leaves.iter().all(|l| l.visofs < 0) {
+        return (Vec::new(), Vec::new());
+    }
+    let mut data = bsp.visdata.clone();
+    let mut all_visible_at = None;
+    let offsets = vis_leaves
+        .iter()
+        .map(|l| match u32::try_from(l.visofs) {
+            Ok(ofs) => ofs,
+            Err(_) => *all_visible_at.get_or_insert_with(|| {
+                let at = data.len() as u32;
+                let mut row = vec![0u8; visleafs.div_ceil(8)];
+                super::fill_all_visible(&mut row, visleafs);
+                rle::encode_row(&row, &mut data);
+                at
+            }),
+        })
+        .collect();
+    (offsets, data)
+}

@@ -1,0 +1,499 @@
+//! Quake BSP files: BSP29, BSP2 and BSP2-RMQ (`2PSB`).
+//!
+//! [`read`] checks the header and every lump against the file, decodes the lumps that visibility
+//! and drawing need into typed records, and validates every index (node children, planes, faces,
+//! edges, vertices, texinfo, marksurfaces, model head nodes, `visofs` and the PVS row each vis leaf
+//! points at; the node graph must be acyclic; planes and vertices must be finite), so code holding
+//! a [`Bsp`] may index its vectors without checks, and [`to_level`] of it passes
+//! [`crate::slvl::validate`].
+//! [`write_with_visdata`] replaces the visibility lump of an existing file and keeps every other
+//! lump byte-identical; [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
+//!
+//! # Conventions (Quake's)
+//! - Node children use Quake's encoding, widened to `i32`: `c >= 0` is node `c`, `c < 0` is leaf
+//!   `-(c + 1)`. BSP29 stores them as 16 bits; like current engines, a stored value `p` (read
+//!   unsigned) below the node count is a node, otherwise leaf `65535 - p`.
+//! - Leaf 0 is the shared solid leaf. Leaf `i + 1` (for `i < visleafs`) owns PVS row `i`, in which
+//!   bit `j` (byte `j >> 3`, bit `j & 7`, least significant first) means leaf `j + 1` is visible.
+//!   `visofs == -1`, or an empty visibility lump, means "no vis data: everything visible"; the
+//!   `visofs` of leaf 0 and of brush-model leaves is never read (qbsp leaves 0 there).
+//! - A face with `side != 0` is seen from the back of its plane. Its corners, read through
+//!   surfedges (`e >= 0`: `edges[e].0`; `e < 0`: `edges[-e].1`), run clockwise seen from the side
+//!   it faces.
+
+mod convert;
+mod parse;
+mod write;
+
+pub use convert::to_level;
+pub use write::write_with_visdata;
+
+use crate::rle::{self, RleError};
+use thiserror::Error;
+
+/// Number of lumps in every BSP version handled here.
+pub const NUM_LUMPS: usize = 15;
+/// Size of the header: version plus 15 `(offset, length)` pairs.
+pub const HEADER_BYTES: usize = 4 + NUM_LUMPS * 8;
+
+/// Lump indices, in header order.
+pub mod lump {
+    /// Entity text.
+    pub const ENTITIES: usize = 0;
+    /// Planes.
+    pub const PLANES: usize = 1;
+    /// Miptex directory and texture data.
+    pub const TEXTURES: usize = 2;
+    /// Vertices.
+    pub const VERTICES: usize = 3;
+    /// Compressed PVS rows.
+    pub const VISIBILITY: usize = 4;
+    /// Nodes.
+    pub const NODES: usize = 5;
+    /// Texture projection records.
+    pub const TEXINFO: usize = 6;
+    /// Faces.
+    pub const FACES: usize = 7;
+    /// Light maps.
+    pub const LIGHTING: usize = 8;
+    /// Collision hulls.
+    pub const CLIPNODES: usize = 9;
+    /// Leaves.
+    pub const LEAVES: usize = 10;
+    /// Face lists of leaves.
+    pub const MARKSURFACES: usize = 11;
+    /// Edges.
+    pub const EDGES: usize = 12;
+    /// Signed edge lists of faces.
+    pub const SURFEDGES: usize = 13;
+    /// Models.
+    pub const MODELS: usize = 14;
+    /// Lump names, for messages.
+    pub const NAMES: [&str; super::NUM_LUMPS] = [
+        "entities",
+        "planes",
+        "textures",
+        "vertices",
+        "visibility",
+        "nodes",
+        "texinfo",
+        "faces",
+        "lighting",
+        "clipnodes",
+        "leaves",
+        "marksurfaces",
+        "edges",
+        "surfedges",
+        "models",
+    ];
+}
+
+/// Which flavour of BSP a file is; decides record sizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BspVersion {
+    /// Quake's original: version `29`, 16-bit node/leaf bounds, indices and children.
+    Bsp29,
+    /// `BSP2`: 32-bit indices and children, float bounds.
+    Bsp2,
+    /// `2PSB` (BSP2-RMQ): 32-bit indices and children, 16-bit bounds.
+    Bsp2Rmq,
+}
+
+impl BspVersion {
+    /// The four bytes that start the file.
+    pub fn magic(self) -> [u8; 4] {
+        match self {
+            Self::Bsp29 => 29i32.to_le_bytes(),
+            Self::Bsp2 => *b"BSP2",
+            Self::Bsp2Rmq => *b"2PSB",
+        }
+    }
+
+    /// Short name for messages and `info`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Bsp29 => "BSP29",
+            Self::Bsp2 => "BSP2",
+            Self::Bsp2Rmq => "BSP2-RMQ",
+        }
+    }
+
+    /// Bytes of one leaf record.
+    pub fn leaf_bytes(self) -> usize {
+        match self {
+            Self::Bsp29 => 28,
+            Self::Bsp2 => 44,
+            Self::Bsp2Rmq => 32,
+        }
+    }
+
+    /// Byte offset of the four ambient levels inside a leaf record.
+    pub fn leaf_ambient_offset(self) -> usize {
+        self.leaf_bytes() - 4
+    }
+}
+
+/// One header entry as stored (already checked to lie inside the file).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct LumpEntry {
+    /// Byte offset from the start of the file.
+    pub offset: usize,
+    /// Length in bytes.
+    pub length: usize,
+}
+
+impl LumpEntry {
+    /// One past the last byte.
+    pub fn end(&self) -> usize {
+        self.offset + self.length
+    }
+}
+
+/// A plane record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BspPlane {
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// `normal · p` on the plane.
+    pub dist: f32,
+    /// Quake's axial type code (0..=5).
+    pub kind: i32,
+}
+
+/// A node record, children decoded to Quake's signed encoding (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BspNode {
+    /// Index into [`Bsp::planes`].
+    pub plane: u32,
+    /// Front child (`normal · p - dist >= 0`) then back child.
+    pub children: [i32; 2],
+    /// Bounds.
+    pub mins: [f32; 3],
+    /// Bounds.
+    pub maxs: [f32; 3],
+    /// First face in [`Bsp::faces`].
+    pub first_face: u32,
+    /// Number of faces.
+    pub num_faces: u32,
+}
+
+/// A leaf record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BspLeaf {
+    /// Quake contents code (-1 empty, -2 solid, -3 water, -4 slime, -5 lava, -6 sky; others kept).
+    pub contents: i32,
+    /// Byte offset of the leaf's PVS row in [`Bsp::visdata`], or -1.
+    pub visofs: i32,
+    /// Bounds.
+    pub mins: [f32; 3],
+    /// Bounds.
+    pub maxs: [f32; 3],
+    /// First entry in [`Bsp::marksurfaces`].
+    pub first_marksurface: u32,
+    /// Number of entries.
+    pub num_marksurfaces: u32,
+    /// Ambient sound levels: water, sky, slime, lava.
+    pub ambient: [u8; 4],
+}
+
+/// A texture projection record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TexInfo {
+    /// S and T axes with offsets.
+    pub vecs: [[f32; 4]; 2],
+    /// Index into [`Bsp::textures`].
+    pub miptex: u32,
+    /// Flags (bit 0: special, i.e. sky or liquid, not lightmapped).
+    pub flags: i32,
+}
+
+/// A face record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BspFace {
+    /// Index into [`Bsp::planes`].
+    pub plane: u32,
+    /// True when the face is seen from the back of its plane.
+    pub back: bool,
+    /// First entry in [`Bsp::surfedges`].
+    pub first_edge: u32,
+    /// Number of edges (at least 3).
+    pub num_edges: u32,
+    /// Index into [`Bsp::texinfo`].
+    pub texinfo: u32,
+    /// Light styles.
+    pub styles: [u8; 4],
+    /// Byte offset into the lighting lump, or -1.
+    pub light_offset: i32,
+}
+
+/// A model record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BspModel {
+    /// Bounds.
+    pub mins: [f32; 3],
+    /// Bounds.
+    pub maxs: [f32; 3],
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Hull 0 root (node child encoding) then the three clip hull roots (clipnode indices, or a
+    /// negative contents code for an empty hull).
+    pub head_nodes: [i32; 4],
+    /// Leaves with PVS rows (meaningful for model 0).
+    pub visleafs: u32,
+    /// First face in [`Bsp::faces`].
+    pub first_face: u32,
+    /// Number of faces.
+    pub num_faces: u32,
+}
+
+/// A texture directory entry; `None` in [`Bsp::textures`] marks a missing texture (offset -1).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MipTex {
+    /// Name, up to 15 characters (lossily decoded).
+    pub name: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+/// A parsed, validated BSP file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bsp {
+    /// File flavour.
+    pub version: BspVersion,
+    /// Header entries, in lump order.
+    pub lumps: [LumpEntry; NUM_LUMPS],
+    /// Entity text up to the first NUL (lossily decoded).
+    pub entities: String,
+    /// Planes.
+    pub planes: Vec<BspPlane>,
+    /// Texture directory.
+    pub textures: Vec<Option<MipTex>>,
+    /// Vertices.
+    pub vertices: Vec<[f32; 3]>,
+    /// Compressed PVS rows.
+    pub visdata: Vec<u8>,
+    /// Nodes.
+    pub nodes: Vec<BspNode>,
+    /// Texture projections.
+    pub texinfo: Vec<TexInfo>,
+    /// Faces.
+    pub faces: Vec<BspFace>,
+    /// Number of clipnode records (their content is not decoded).
+    pub num_clipnodes: usize,
+    /// Leaves.
+    pub leaves: Vec<BspLeaf>,
+    /// Face indices listed by leaves.
+    pub marksurfaces: Vec<u32>,
+    /// Edges as vertex index pairs.
+    pub edges: Vec<[u32; 2]>,
+    /// Signed edge indices listed by faces.
+    pub surfedges: Vec<i32>,
+    /// Models; model 0 is the world.
+    pub models: Vec<BspModel>,
+}
+
+/// Everything that can be wrong with a BSP file or a write request.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum BspError {
+    /// The file cannot hold the header.
+    #[error("file is {len} bytes, shorter than the {HEADER_BYTES}-byte BSP header")]
+    TooShort {
+        /// File length.
+        len: usize,
+    },
+    /// Unknown version field.
+    #[error("byte 0: unknown BSP version {magic:02x?} (expected 29, BSP2 or 2PSB)")]
+    Version {
+        /// The first four bytes.
+        magic: [u8; 4],
+    },
+    /// A header entry points outside the file.
+    #[error(
+        "byte {header_offset}: lump {lump} ({name}) has offset {offset} and length {length}, outside the {file_len}-byte file"
+    )]
+    LumpBounds {
+        /// Byte offset of the header entry.
+        header_offset: usize,
+        /// Lump index.
+        lump: usize,
+        /// Lump name.
+        name: &'static str,
+        /// Stored offset.
+        offset: i64,
+        /// Stored length.
+        length: i64,
+        /// File length.
+        file_len: usize,
+    },
+    /// A lump's length does not fit its records.
+    #[error("byte {offset}: lump {name} is {length} bytes, not a multiple of its {record}-byte record")]
+    LumpSize {
+        /// Lump offset.
+        offset: usize,
+        /// Lump name.
+        name: &'static str,
+        /// Lump length.
+        length: usize,
+        /// Record size.
+        record: usize,
+    },
+    /// A record holds a bad value or index.
+    #[error("byte {offset}: {what}: {detail}")]
+    Invalid {
+        /// Byte offset of the record in the file.
+        offset: usize,
+        /// Which record (`"node 12"`).
+        what: String,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A PVS row does not decode.
+    #[error("byte {offset}: PVS row of leaf {leaf}: {source}")]
+    Row {
+        /// Byte offset of the row in the file.
+        offset: usize,
+        /// Leaf index.
+        leaf: usize,
+        /// Decoder error.
+        source: RleError,
+    },
+    /// A leaf index outside `1..=visleafs` was asked for its PVS.
+    #[error("leaf {leaf} has no PVS row (vis leaves are 1..={visleafs})")]
+    NotAVisLeaf {
+        /// Requested leaf.
+        leaf: usize,
+        /// Vis leaves in the file.
+        visleafs: usize,
+    },
+    /// Arguments of [`write_with_visdata`] do not match the file.
+    #[error("cannot write visdata: {0}")]
+    Write(String),
+}
+
+/// Parses and validates a BSP file.
+pub fn read(bytes: &[u8]) -> Result<Bsp, BspError> {
+    parse::read(bytes)
+}
+
+/// Summary of the PVS stored in a BSP.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PvsStats {
+    /// Leaves with rows.
+    pub visleafs: usize,
+    /// Mean number of visible leaves per vis leaf (bits set in its row; "no vis" counts all).
+    pub avg_visible: f64,
+    /// Largest number of visible leaves of one vis leaf.
+    pub max_visible: usize,
+    /// Size of the visibility lump.
+    pub visdata_bytes: usize,
+}
+
+impl Bsp {
+    /// Number of leaves with PVS rows (world model's `visleafs`).
+    pub fn visleafs(&self) -> usize {
+        self.models.first().map_or(0, |m| m.visleafs as usize)
+    }
+
+    /// Bytes in one uncompressed PVS row.
+    pub fn row_bytes(&self) -> usize {
+        self.visleafs().div_ceil(8)
+    }
+
+    /// The uncompressed PVS row of `leaf` (`1..=visleafs`): bit `j` set means leaf `j + 1` is
+    /// visible. A leaf with `visofs == -1`, or any leaf when the visdata is empty, sees every vis
+    /// leaf.
+    pub fn decode_leaf_pvs(&self, leaf: usize) -> Result<Vec<u8>, BspError> {
+        let mut row = vec![0; self.row_bytes()];
+        self.decode_leaf_pvs_into(leaf, &mut row)?;
+        Ok(row)
+    }
+
+    /// As [`Bsp::decode_leaf_pvs`], into `row` (at least [`Bsp::row_bytes`] long).
+    pub fn decode_leaf_pvs_into(&self, leaf: usize, row: &mut [u8]) -> Result<(), BspError> {
+        let visleafs = self.visleafs();
+        let info = match self.leaves.get(leaf) {
+            Some(info) if (1..=visleafs).contains(&leaf) => info,
+            _ => return Err(BspError::NotAVisLeaf { leaf, visleafs }),
+        };
+        let row_bytes = self.row_bytes();
+        let row_err = |offset, source| BspError::Row { offset, leaf, source };
+        let Some(row) = row.get_mut(..row_bytes) else {
+            return Err(row_err(0, RleError::OutputTooSmall { len: row.len(), row_bytes }));
+        };
+        let visofs = usize::try_from(info.visofs).ok().filter(|_| !self.visdata.is_empty());
+        let Some(visofs) = visofs else {
+            fill_all_visible(row, visleafs);
+            return Ok(());
+        };
+        let vis_lump = self.lumps[lump::VISIBILITY].offset;
+        let data = self.visdata.get(visofs..).unwrap_or_default();
+        rle::decode_row(data, row_bytes, row).map_err(|e| row_err(vis_lump + visofs, e))?;
+        Ok(())
+    }
+
+    /// Visible-leaf statistics over all vis leaves; `None` when the file has no vis leaves.
+    pub fn pvs_stats(&self) -> Result<Option<PvsStats>, BspError> {
+        let visleafs = self.visleafs();
+        if visleafs == 0 {
+            return Ok(None);
+        }
+        let mut row = vec![0; self.row_bytes()];
+        let mut total = 0usize;
+        let mut max = 0usize;
+        for leaf in 1..=visleafs {
+            self.decode_leaf_pvs_into(leaf, &mut row)?;
+            let n = rle::count_bits(&row);
+            total += n;
+            max = max.max(n);
+        }
+        Ok(Some(PvsStats {
+            visleafs,
+            avg_visible: total as f64 / visleafs as f64,
+            max_visible: max,
+            visdata_bytes: self.visdata.len(),
+        }))
+    }
+
+    /// Corner vertex indices of face `face`, in stored order.
+    pub fn face_vertex_indices(&self, face: &BspFace) -> impl Iterator<Item = u32> + '_ {
+        let first = face.first_edge as usize;
+        let edges = self.surfedges.get(first..first + face.num_edges as usize).unwrap_or_default();
+        edges.iter().filter_map(|&e| {
+            let edge = self.edges.get(e.unsigned_abs() as usize)?;
+            Some(if e >= 0 { edge[0] } else { edge[1] })
+        })
+    }
+
+    /// Texture name of a face; empty when the texture is missing from the file.
+    pub fn face_texture_name(&self, face: &BspFace) -> &str {
+        self.texinfo
+            .get(face.texinfo as usize)
+            .and_then(|ti| self.textures.get(ti.miptex as usize))
+            .and_then(|t| t.as_ref())
+            .map_or("", |t| t.name.as_str())
+    }
+}
+
+/// Sets the first `visleafs` bits of `row` and clears the rest.
+fn fill_all_visible(row: &mut [u8], visleafs: usize) {
+    for (i, byte) in row.iter_mut().enumerate() {
+        let bits = visleafs.saturating_sub(i * 8).min(8);
+        *byte = if bits == 8 { 0xff } else { (1u16 << bits).wrapping_sub(1) as u8 };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_visible_row_sets_only_vis_leaves() {
+        let mut row = [0u8; 3];
+        fill_all_visible(&mut row, 10);
+        assert_eq!(row, [0xff, 0x03, 0x00]);
+        fill_all_visible(&mut row, 24);
+        assert_eq!(row, [0xff; 3]);
+    }
+}

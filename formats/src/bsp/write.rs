@@ -1,0 +1,110 @@
+//! Replacing the visibility lump of an existing BSP file.
+
+use super::{BspError, HEADER_BYTES, lump, parse, read};
+
+fn align4(x: usize) -> usize {
+    x.next_multiple_of(4)
+}
+
+fn write_err(msg: impl Into<String>) -> BspError {
+    BspError::Write(msg.into())
+}
+
+/// Returns `original` with lump 4 replaced by `visdata`, every leaf's `visofs` set from
+/// `leaf_visofs` (one per leaf: for vis leaves `-1` or the offset of a row in `visdata`; other
+/// leaves are not read by engines) and, when given, every leaf's
+/// ambient sound levels (water, sky, slime, lava).
+///
+/// Lumps stored after the visibility lump move with it; Quake's 4-byte alignment of lump starts is
+/// kept (the padding written is zero bytes). Every other byte of every other lump is unchanged, so
+/// writing back the visdata a file already has reproduces it exactly. The result is read back
+/// with [`read`] before it is returned, so a file that would not load is never produced.
+pub fn write_with_visdata(
+    original: &[u8],
+    visdata: &[u8],
+    leaf_visofs: &[i32],
+    ambient: Option<&[[u8; 4]]>,
+) -> Result<Vec<u8>, BspError> {
+    let (version, lumps) = parse::read_header(original)?;
+    let leaf_bytes = version.leaf_bytes();
+    let leaves = lumps[lump::LEAVES];
+    if !leaves.length.is_multiple_of(leaf_bytes) {
+        return Err(BspError::LumpSize {
+            offset: leaves.offset,
+            name: "leaves",
+            length: leaves.length,
+            record: leaf_bytes,
+        });
+    }
+    let num_leaves = leaves.length / leaf_bytes;
+    if leaf_visofs.len() != num_leaves {
+        return Err(write_err(format!("{} visofs given for {num_leaves} leaves", leaf_visofs.len())));
+    }
+    if let Some(a) = ambient.filter(|a| a.len() != num_leaves) {
+        return Err(write_err(format!("{} ambient levels given for {num_leaves} leaves", a.len())));
+    }
+    let vis = lumps[lump::VISIBILITY];
+    let (old_start, old_end) = (vis.offset, vis.end());
+    for (j, l) in lumps.iter().enumerate() {
+        if j != lump::VISIBILITY && l.length > 0 && l.offset < old_end && old_start < l.end() {
+            return Err(write_err(format!("lump {} overlaps the visibility lump", lump::NAMES[j])));
+        }
+    }
+    // Where the bytes after the visibility lump start: after its alignment padding when no lump
+    // starts inside that padding, else right after it.
+    let first_follow = lumps
+        .iter()
+        .enumerate()
+        .filter(|&(j, l)| j != lump::VISIBILITY && l.length > 0 && l.offset >= old_end)
+        .map(|(_, l)| l.offset)
+        .min()
+        .unwrap_or(original.len());
+    let padded = align4(old_end) <= first_follow;
+    let (tail_old, tail_new) = if padded {
+        (align4(old_end), align4(old_start + visdata.len()))
+    } else {
+        (old_end, old_start + visdata.len())
+    };
+
+    let mut out = Vec::with_capacity(original.len() + visdata.len() + 4);
+    out.extend_from_slice(&original[..old_start]);
+    out.extend_from_slice(visdata);
+    out.resize(tail_new, 0);
+    out.extend_from_slice(original.get(tail_old..).unwrap_or_default());
+
+    // Header: the visibility lump, then every lump that followed it moves by the same amount.
+    let mut header = lumps;
+    header[lump::VISIBILITY].length = visdata.len();
+    for (j, l) in header.iter_mut().enumerate() {
+        if j == lump::VISIBILITY {
+            continue;
+        }
+        if l.length > 0 && l.offset >= old_end {
+            l.offset = l.offset - tail_old + tail_new;
+        } else if l.length == 0 && l.offset > old_start {
+            // An empty lump after or inside the old visibility lump: keep it next to the data.
+            l.offset =
+                if l.offset >= tail_old { l.offset - tail_old + tail_new } else { old_start + visdata.len() };
+        }
+    }
+    for (j, l) in header.iter().enumerate() {
+        let at = 4 + j * 8;
+        let offset = i32::try_from(l.offset).map_err(|_| write_err("file grows beyond 2 GiB"))?;
+        let length = i32::try_from(l.length).map_err(|_| write_err("visdata beyond 2 GiB"))?;
+        out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
+        out[at + 4..at + 8].copy_from_slice(&length.to_le_bytes());
+    }
+    debug_assert!(out.len() >= HEADER_BYTES);
+
+    let leaves_at = header[lump::LEAVES].offset;
+    let ambient_at = version.leaf_ambient_offset();
+    for (i, &ofs) in leaf_visofs.iter().enumerate() {
+        let rec = leaves_at + i * leaf_bytes;
+        out[rec + 4..rec + 8].copy_from_slice(&ofs.to_le_bytes());
+        if let Some(levels) = ambient.and_then(|a| a.get(i)) {
+            out[rec + ambient_at..rec + ambient_at + 4].copy_from_slice(levels);
+        }
+    }
+    read(&out)?;
+    Ok(out)
+}

@@ -1,0 +1,285 @@
+//! The portal backend: visibility found at run time by recursion through portals (thesis §5.3).
+//!
+//! From the eye's leaf, every portal whose far side faces away from the eye is clipped to the
+//! current frustum; if something is left, the frustum is rebuilt from planes through the eye and
+//! each edge of the clipped polygon, plus the portal's own plane (only what lies beyond the portal
+//! counts) and the camera's far plane, and the search recurses into the leaf behind it. A leaf is
+//! never re-entered while it is on the current path, the depth is capped at [`MAX_DEPTH`], the
+//! entries into one leaf at [`MAX_ENTRIES_PER_LEAF`] and the portals crossed per frame at
+//! [`BUDGET`] (`FrameStats::truncated` reports when a cap was hit). The leaves
+//! reached are then walked front to back with the full camera frustum, as the PVS backend does.
+//!
+//! # Epsilon
+//! Decisions round toward **not visible** by at most [`PORTAL_EPSILON`]: a portal whose plane
+//! passes within `PORTAL_EPSILON` units of the eye is crossed only from the eye's own leaf (then
+//! without narrowing the frustum, since the eye is on the opening), and a clipped portal polygon
+//! with less than `PORTAL_EPSILON²` square units of area, or seen under less than
+//! [`MIN_SOLID_ANGLE`], is treated as closed. So the leaves found
+//! are those some line of sight reaches through openings at least that wide, which keeps them
+//! inside any conservative PVS.
+
+use glam::Vec3A;
+
+use crate::backend::Backend;
+use crate::camera::View;
+use crate::scratch::{Scratch, Visible};
+use crate::walk::walk_marked;
+use crate::world::{LeafId, World};
+
+/// Tolerance of the portal search, in world units (see the module docs).
+pub const PORTAL_EPSILON: f32 = 0.01;
+/// Portal windows that, after clipping, cover less than this solid angle (steradians; about a
+/// tenth of a pixel of a 1000-pixel-wide 90° view) are treated as closed.
+pub const MIN_SOLID_ANGLE: f32 = 2.5e-7;
+/// Longest chain of portals followed.
+pub const MAX_DEPTH: u32 = 96;
+/// Most portals crossed in one frame.
+pub const BUDGET: u32 = 1 << 14;
+/// Most times one leaf is entered in one frame (through different portal chains). Open areas cut
+/// into many small leaves otherwise make the number of chains explode; the cap keeps the worst
+/// frame bounded at the price of possibly missing leaves seen only through a later chain
+/// (`FrameStats::truncated` tells).
+pub const MAX_ENTRIES_PER_LEAF: u32 = 8;
+
+/// The portal backend; see the module docs.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Portal;
+
+impl Backend for Portal {
+    fn name(&self) -> &'static str {
+        "portal"
+    }
+
+    fn supports(&self, world: &World) -> bool {
+        world.num_portals() > 0
+    }
+
+    fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
+        scratch.bind(world);
+        scratch.next_mark_gen();
+        scratch.stats.marks_reused = false;
+        scratch.stats.truncated = false;
+        scratch.entry_polys.clear();
+        scratch.entry_list.clear();
+        let eye_leaf = world.leaf_at(view.eye);
+        let open = world.leaf_contents(eye_leaf).is_some_and(|c| c.is_open());
+        let mut search = Search { eye: view.eye, far: (view.frustum.normals[5], view.frustum.dists[5]), crossed: 0, marked: 0, truncated: false };
+        if open {
+            scratch.mark_leaf(world, eye_leaf);
+            search.marked = 1;
+            scratch.planes.clear();
+            for i in [0, 1, 2, 3, 5] {
+                scratch.planes.push((view.frustum.normals[i], view.frustum.dists[i]));
+            }
+            search.enter(world, scratch, eye_leaf, 0, 0);
+        } else {
+            search.marked = scratch.mark_all(world);
+        }
+        scratch.stats.marked_leaves = search.marked;
+        scratch.stats.portals_crossed = search.crossed;
+        scratch.stats.truncated = search.truncated;
+        walk_marked(world, view, scratch, out);
+    }
+}
+
+struct Search {
+    eye: Vec3A,
+    far: (Vec3A, f32),
+    crossed: u32,
+    marked: u32,
+    truncated: bool,
+}
+
+impl Search {
+    /// Visit `leaf` with the frustum `scratch.planes[planes_start..]`.
+    fn enter(&mut self, world: &World, scratch: &mut Scratch, leaf: LeafId, planes_start: usize, depth: u32) {
+        if let Some(p) = scratch.on_path.get_mut(leaf as usize) {
+            *p = true;
+        }
+        if let Some(e) = scratch.entries.get_mut(leaf as usize) {
+            if e.0 != scratch.mark_gen {
+                *e = (scratch.mark_gen, 0);
+            }
+            e.1 += 1;
+            if e.1 > MAX_ENTRIES_PER_LEAF {
+                self.truncated = true;
+                if let Some(p) = scratch.on_path.get_mut(leaf as usize) {
+                    *p = false;
+                }
+                return;
+            }
+        }
+        let planes_end = scratch.planes.len();
+        for &pi in world.leaf_portals(leaf) {
+            if self.crossed >= BUDGET {
+                self.truncated = true;
+                break;
+            }
+            let Some(portal) = world.portals.get(pi as usize) else { continue };
+            // Orient the portal plane so that its front is the far side.
+            let (other, n, d) = if portal.leaves[0] == leaf {
+                (portal.leaves[1], -portal.normal, -portal.dist)
+            } else {
+                (portal.leaves[0], portal.normal, portal.dist)
+            };
+            if scratch.on_path.get(other as usize) != Some(&false) {
+                continue;
+            }
+            let eye_side = n.dot(self.eye) - d;
+            let start = portal.first_vertex as usize;
+            let Some(pts) = world.portal_vertices.get(start..start + portal.num_vertices as usize) else { continue };
+            if eye_side > -PORTAL_EPSILON {
+                // The eye is on (or beyond) the portal plane: only an opening the eye stands in
+                // can be passed, and without narrowing.
+                if depth == 0 && eye_side < PORTAL_EPSILON && self.cross(world, scratch, other) {
+                    self.enter(world, scratch, other, planes_start, depth + 1);
+                }
+                continue;
+            }
+            // Clip the portal polygon to the current frustum.
+            scratch.poly_a.clear();
+            scratch.poly_a.extend_from_slice(pts);
+            let mut empty = false;
+            for k in planes_start..planes_end {
+                let Some(&(pn, pd)) = scratch.planes.get(k) else { break };
+                clip(&scratch.poly_a, pn, pd, &mut scratch.poly_b);
+                std::mem::swap(&mut scratch.poly_a, &mut scratch.poly_b);
+                if scratch.poly_a.len() < 3 {
+                    empty = true;
+                    break;
+                }
+            }
+            if empty {
+                continue;
+            }
+            let count = scratch.poly_a.len();
+            let centroid = scratch.poly_a.iter().copied().sum::<Vec3A>() / count as f32;
+            let a = area(&scratch.poly_a);
+            if a < PORTAL_EPSILON * PORTAL_EPSILON || a < MIN_SOLID_ANGLE * centroid.distance_squared(self.eye) {
+                continue;
+            }
+            if covered(scratch, other, self.eye) {
+                continue;
+            }
+            if !self.cross(world, scratch, other) {
+                continue;
+            }
+            remember(scratch, other);
+            // The narrowed frustum: eye-edge planes, the portal plane, the far plane.
+            let new_start = scratch.planes.len();
+            for i in 0..count {
+                let (Some(&a), Some(&b)) = (scratch.poly_a.get(i), scratch.poly_a.get((i + 1) % count)) else { break };
+                // An edge seen under less than ~1e-4 radians (clipping leaves such slivers) gives
+                // no reliable plane; dropping it only widens the frustum.
+                let (ea, eb) = (a - self.eye, b - self.eye);
+                let c = ea.cross(eb);
+                if c.length_squared() <= 1e-8 * ea.length_squared() * eb.length_squared() {
+                    continue;
+                }
+                let Some(en) = c.try_normalize() else { continue };
+                let en = if en.dot(centroid - self.eye) < 0.0 { -en } else { en };
+                scratch.planes.push((en, en.dot(self.eye)));
+            }
+            scratch.planes.push((n, d));
+            scratch.planes.push(self.far);
+            if depth + 1 < MAX_DEPTH {
+                self.enter(world, scratch, other, new_start, depth + 1);
+            } else {
+                self.truncated = true;
+            }
+            scratch.planes.truncate(new_start);
+        }
+        if let Some(p) = scratch.on_path.get_mut(leaf as usize) {
+            *p = false;
+        }
+    }
+
+    /// Count a crossing into `other` and mark it; false when `other` is solid.
+    fn cross(&mut self, world: &World, scratch: &mut Scratch, other: LeafId) -> bool {
+        if !world.leaf_contents(other).is_some_and(|c| c.is_open()) {
+            return false;
+        }
+        self.crossed += 1;
+        if scratch.mark_leaf(world, other) {
+            self.marked += 1;
+        }
+        true
+    }
+}
+
+/// True when the cone from `eye` through `scratch.poly_a` lies inside the cone of an earlier
+/// entry into `leaf` this frame (within [`PORTAL_EPSILON`]): whatever it could reveal, that
+/// entry's search already found.
+fn covered(scratch: &Scratch, leaf: LeafId, eye: Vec3A) -> bool {
+    let Some(&(gen_, mut at)) = scratch.entry_head.get(leaf as usize) else { return false };
+    if gen_ != scratch.mark_gen {
+        return false;
+    }
+    while let Some(&(start, len, next)) = scratch.entry_list.get(at as usize) {
+        let Some(q) = scratch.entry_polys.get(start as usize..start as usize + len as usize) else { break };
+        if cone_contains(q, &scratch.poly_a, eye) {
+            return true;
+        }
+        at = next;
+    }
+    false
+}
+
+/// True when every point of `p` is inside the cone from `eye` through convex polygon `q`.
+fn cone_contains(q: &[Vec3A], p: &[Vec3A], eye: Vec3A) -> bool {
+    let count = q.len();
+    if count < 3 {
+        return false;
+    }
+    let centroid = q.iter().copied().sum::<Vec3A>() / count as f32;
+    for i in 0..count {
+        let (Some(&a), Some(&b)) = (q.get(i), q.get((i + 1) % count)) else { return false };
+        let Some(n) = (a - eye).cross(b - eye).try_normalize() else { continue };
+        let n = if n.dot(centroid - eye) < 0.0 { -n } else { n };
+        if p.iter().any(|&v| n.dot(v - eye) < -PORTAL_EPSILON) {
+            return false;
+        }
+    }
+    true
+}
+
+/// Record `scratch.poly_a` as an entry into `leaf` this frame.
+fn remember(scratch: &mut Scratch, leaf: LeafId) {
+    let gen_ = scratch.mark_gen;
+    let Some(head) = scratch.entry_head.get_mut(leaf as usize) else { return };
+    let next = if head.0 == gen_ { head.1 } else { u32::MAX };
+    let start = scratch.entry_polys.len() as u32;
+    scratch.entry_polys.extend_from_slice(&scratch.poly_a);
+    scratch.entry_list.push((start, scratch.poly_a.len() as u32, next));
+    *head = (gen_, scratch.entry_list.len() as u32 - 1);
+}
+
+/// Keep the part of convex polygon `input` in front of the plane (`n · p - d >= 0`).
+fn clip(input: &[Vec3A], n: Vec3A, d: f32, out: &mut Vec<Vec3A>) {
+    out.clear();
+    let Some(&last) = input.last() else { return };
+    let mut prev = last;
+    let mut prev_d = n.dot(prev) - d;
+    for &cur in input {
+        let cur_d = n.dot(cur) - d;
+        if (prev_d >= 0.0) != (cur_d >= 0.0) {
+            let t = prev_d / (prev_d - cur_d);
+            out.push(prev + (cur - prev) * t);
+        }
+        if cur_d >= 0.0 {
+            out.push(cur);
+        }
+        prev = cur;
+        prev_d = cur_d;
+    }
+}
+
+/// Area of a planar polygon.
+fn area(poly: &[Vec3A]) -> f32 {
+    let Some(&o) = poly.first() else { return 0.0 };
+    let mut sum = Vec3A::ZERO;
+    for w in poly.windows(2).skip(1) {
+        sum += (w[0] - o).cross(w[1] - o);
+    }
+    sum.length() * 0.5
+}

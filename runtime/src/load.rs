@@ -1,0 +1,92 @@
+//! Loading a [`World`] from `.slvl` or Quake `.bsp` bytes (optionally with the `.prt` file that
+//! the BSP's compiler wrote, to give the portal backend its portals).
+
+use std::path::Path;
+
+use sightline_formats::level::{Level, LevelPlane, Portal};
+use sightline_formats::prt::{self, PortalFile, PrtFormat};
+use sightline_formats::{bsp, slvl};
+
+use crate::error::LoadError;
+use crate::world::World;
+
+/// Load a `.slvl` file's bytes.
+pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
+    World::new(&slvl::read(bytes)?)
+}
+
+/// Load a Quake `.bsp` (BSP29, BSP2, BSP2-RMQ) with its visdata. Leaf `i` of the world is leaf `i`
+/// of the BSP; vis leaf `i` is cluster `i - 1` (see [`bsp::to_level`]). The world has no portals.
+pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
+    World::new(&bsp::to_level(&bsp::read(bytes)?))
+}
+
+/// Load a Quake `.bsp` and take its portals from the text of the `.prt` file its compiler wrote.
+pub fn load_bsp_with_prt(bytes: &[u8], prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
+    let mut level = bsp::to_level(&bsp::read(bytes)?);
+    let prt = prt::read(prt_text, prt_name)?;
+    add_prt_portals(&mut level, &prt)?;
+    World::new(&level)
+}
+
+/// Load `.slvl` or `.bsp` bytes, told apart by their first four bytes.
+pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
+    if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
+}
+
+/// Load a file. For a `.bsp`, a portal file beside it (`NAME.prt` for `NAME.bsp` or
+/// `NAME.vis.bsp`) is used when present and in PRT1 form.
+pub fn load_path(path: &Path) -> Result<World, LoadError> {
+    let io = |source| LoadError::Io { path: path.display().to_string(), source };
+    let bytes = std::fs::read(path).map_err(io)?;
+    if bytes.starts_with(&slvl::MAGIC) {
+        return load_slvl(&bytes);
+    }
+    if let Some(prt_path) = sibling_prt(path)
+        && let Ok(text) = std::fs::read_to_string(&prt_path)
+        && text.trim_start().starts_with("PRT1\n")
+    {
+        return load_bsp_with_prt(&bytes, &text, &prt_path.display().to_string());
+    }
+    load_bsp(&bytes)
+}
+
+/// `NAME.prt` beside `NAME.bsp` or `NAME.vis.bsp`.
+pub fn sibling_prt(path: &Path) -> Option<std::path::PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let stem = name.strip_suffix(".bsp")?;
+    let stem = stem.strip_suffix(".vis").unwrap_or(stem);
+    Some(path.with_file_name(format!("{stem}.prt")))
+}
+
+/// Append the portals of a PRT1 file to a level made by [`bsp::to_level`]: vis leaf `i` of the
+/// portal file is leaf `i + 1` of the level, and the winding's plane (which faces into its first
+/// leaf) becomes the portal's plane, so the level's convention (normal into `leaves[0]`) holds.
+pub fn add_prt_portals(level: &mut Level, prt: &PortalFile) -> Result<(), LoadError> {
+    if prt.format != PrtFormat::Prt1 {
+        return Err(LoadError::Prt(format!(
+            "the portal backend needs leaf portals (PRT1); this file is {:?} (compile without detail)",
+            prt.format
+        )));
+    }
+    let visleafs = level.leaves.len().saturating_sub(1);
+    if prt.num_leaves as usize > visleafs {
+        return Err(LoadError::Prt(format!("{} portal leaves for {visleafs} BSP leaves", prt.num_leaves)));
+    }
+    for (i, p) in prt.portals.iter().enumerate() {
+        let plane = p.winding.plane().ok_or_else(|| LoadError::Prt(format!("portal {i} has a degenerate winding")))?;
+        level.planes.push(LevelPlane {
+            normal: plane.normal.as_vec3().to_array(),
+            dist: plane.dist as f32,
+        });
+        let first_vertex = level.vertices.len() as u32;
+        level.vertices.extend(p.winding.points.iter().map(|v| v.as_vec3().to_array()));
+        level.portals.push(Portal {
+            leaves: [p.leaves[0] + 1, p.leaves[1] + 1],
+            plane: level.planes.len() as u32 - 1,
+            first_vertex,
+            num_vertices: p.winding.points.len() as u32,
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,300 @@
+//! Unit tests over synthetic grid levels: queries against brute force, walk order, backends,
+//! and validation of damaged levels.
+
+use glam::{Vec3, Vec3A};
+use sightline_formats::level::Level;
+
+use crate::backend::{Backend, portal::Portal, pvs::Pvs};
+use crate::camera::{BoxSide, Camera, Frustum};
+use crate::check::{LeafRegions, order_violations, sampled_leaves};
+use crate::poses::{SplitMix64, random_cameras};
+use crate::scratch::{Scratch, Visible};
+use crate::synth::grid_level;
+use crate::world::World;
+
+/// 8×6×3 cells of 64 units with random pillars (about a quarter solid).
+fn pillars(seed: u64) -> Level {
+    let mut rng = SplitMix64::new(seed);
+    let solid: Vec<bool> = (0..8 * 6 * 3).map(|_| rng.below(4) == 0).collect();
+    grid_level([8, 6, 3], 64.0, true, |x, y, z| solid[(z * 6 + y) * 8 + x])
+}
+
+/// An L: a corridor along +X (y = 0), turning into +Y at x = 7; everything else solid.
+fn l_bend() -> Level {
+    grid_level([8, 8, 1], 64.0, true, |x, y, _| !(y == 0 || x == 7))
+}
+
+#[test]
+fn grid_level_loads() {
+    let world = World::new(&pillars(1)).expect("valid");
+    assert_eq!(world.num_leaves(), 8 * 6 * 3);
+    assert!(world.depth() >= 7 && world.depth() <= 9, "depth {}", world.depth());
+    assert!(world.has_vis());
+}
+
+#[test]
+fn leaf_at_agrees_with_brute_force() {
+    for seed in 0..4 {
+        let world = World::new(&pillars(seed)).expect("valid");
+        let regions = LeafRegions::new(&world);
+        let mut rng = SplitMix64::new(seed + 100);
+        for _ in 0..2000 {
+            // Include points outside the grid, and points exactly on cell planes.
+            let mut p = rng.point_in(Vec3A::splat(-100.0), Vec3A::new(612.0, 484.0, 292.0));
+            if rng.below(4) == 0 {
+                p.x = (p.x / 64.0).round() * 64.0;
+            }
+            assert_eq!(regions.leaves_at(p), vec![world.leaf_at(p)], "point {p:?}");
+        }
+    }
+}
+
+#[test]
+fn trace_agrees_with_sampling() {
+    let world = World::new(&pillars(7)).expect("valid");
+    let mut rng = SplitMix64::new(3);
+    let mut hits = 0;
+    for _ in 0..1000 {
+        let a = crate::poses::random_open_point(&world, &mut rng).expect("open point");
+        let b = rng.point_in(Vec3A::splat(-50.0), Vec3A::new(562.0, 434.0, 242.0));
+        let samples = 4000;
+        let first_solid = sampled_leaves(&world, a, b, samples)
+            .into_iter()
+            .find(|&(_, l)| world.leaf_contents(l).is_some_and(|c| !c.is_open()));
+        let len = (b - a).length();
+        let step = 1.0 / samples as f32 + 0.05 / len;
+        match (world.trace(a, b), first_solid) {
+            (None, None) => {}
+            (Some(hit), Some((t, leaf))) => {
+                hits += 1;
+                assert!(!hit.start_solid);
+                assert!((hit.fraction - t).abs() <= step + 0.04 / len, "trace {hit:?} vs sampled {t} (len {len})");
+                assert_eq!(hit.leaf, leaf);
+                assert!((hit.normal.length() - 1.0).abs() < 1e-4);
+                assert!(hit.normal.dot(b - a) < 0.0, "normal faces the segment's start");
+                assert!(world.leaf_contents(world.leaf_at(hit.point)).is_some_and(|c| c.is_open()));
+            }
+            (hit, sampled) => panic!("trace {hit:?} vs sampled {sampled:?} from {a:?} to {b:?}"),
+        }
+    }
+    assert!(hits > 100, "only {hits} segments hit solid");
+}
+
+#[test]
+fn trace_from_solid_starts_solid() {
+    let world = World::new(&l_bend()).expect("valid");
+    let hit = world.trace(Vec3A::new(32.0, 200.0, 32.0), Vec3A::new(32.0, 32.0, 32.0)).expect("hit");
+    assert!(hit.start_solid);
+    assert_eq!(hit.fraction, 0.0);
+}
+
+/// The open, marked leaves whose box is not outside the frustum: what the walk must output.
+fn expected_set(world: &World, cam: &Camera) -> Vec<u32> {
+    let fr: Frustum = cam.view().frustum;
+    let mut v: Vec<u32> = world
+        .open_leaves()
+        .iter()
+        .copied()
+        .filter(|&l| {
+            let b = world.leaf_bounds(l).expect("leaf");
+            fr.test_box(b.center, b.extent, Frustum::ALL) != BoxSide::Outside
+        })
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+#[test]
+fn pvs_walk_outputs_frustum_leaves_front_to_back() {
+    let world = World::new(&pillars(11)).expect("valid");
+    let mut scratch = Scratch::new(&world);
+    let mut out = Visible::for_world(&world);
+    for cam in random_cameras(&world, 5, 300) {
+        Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+        let mut got = out.leaves.clone();
+        got.sort_unstable();
+        assert_eq!(got, expected_set(&world, &cam), "all-visible PVS: output is the frustum set");
+        let bad = order_violations(&world, cam.view().eye, &out.leaves, 512);
+        assert!(bad.is_empty(), "order violations {bad:?} for {cam:?}");
+        // Faces: each once, and exactly those of the output leaves.
+        let mut faces = out.faces.clone();
+        faces.sort_unstable();
+        faces.dedup();
+        assert_eq!(faces.len(), out.faces.len());
+        let want: usize = out.leaves.iter().map(|&l| world.leaf_faces(l).len()).sum();
+        assert_eq!(faces.len(), want);
+    }
+}
+
+#[test]
+fn walk_allocates_nothing_after_warm_up() {
+    let world = World::new(&pillars(2)).expect("valid");
+    let mut scratch = Scratch::new(&world);
+    let mut out = Visible::for_world(&world);
+    let cams = random_cameras(&world, 9, 200);
+    let caps = (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity());
+    for cam in &cams {
+        Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+    }
+    assert_eq!(caps, (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity()));
+}
+
+#[test]
+fn pvs_marks_are_reused_while_the_eye_stays_in_its_cluster() {
+    let world = World::new(&pillars(3)).expect("valid");
+    let mut scratch = Scratch::new(&world);
+    let mut out = Visible::for_world(&world);
+    let cam = random_cameras(&world, 1, 1)[0];
+    Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+    assert!(!scratch.stats.marks_reused);
+    let turned = Camera { yaw: cam.yaw + 90.0, ..cam };
+    Pvs.cull(&world, &turned.view(), &mut scratch, &mut out);
+    assert!(scratch.stats.marks_reused);
+}
+
+#[test]
+fn portal_backend_hides_the_room_around_the_corner() {
+    let world = World::new(&l_bend()).expect("valid");
+    let mut scratch = Scratch::new(&world);
+    let (mut pvs, mut portal) = (Visible::default(), Visible::default());
+    // At the corridor's start looking along +X: the far arm (x = 7, y >= 2) is around the corner.
+    let cam = Camera::quake(Vec3::new(32.0, 32.0, 32.0), 0.0, 0.0);
+    Pvs.cull(&world, &cam.view(), &mut scratch, &mut pvs);
+    Portal.cull(&world, &cam.view(), &mut scratch, &mut portal);
+    let far_arm = |l: &u32| (*l as usize / 8) >= 3;
+    assert!(pvs.leaves.iter().any(far_arm), "the all-visible PVS includes the far arm");
+    assert!(!portal.leaves.iter().any(far_arm), "portal search reached around the corner: {:?}", portal.leaves);
+    assert!(portal.leaves.len() >= 8, "the straight corridor is visible: {:?}", portal.leaves);
+    assert!(order_violations(&world, cam.view().eye, &portal.leaves, 512).is_empty());
+}
+
+#[test]
+fn portal_backend_finds_what_rays_see() {
+    let world = World::new(&pillars(5)).expect("valid");
+    let mut scratch = Scratch::new(&world);
+    let mut out = Visible::default();
+    let mut rng = SplitMix64::new(77);
+    let mut checked = 0;
+    for cam in random_cameras(&world, 21, 200) {
+        let view = cam.view();
+        Portal.cull(&world, &view, &mut scratch, &mut out);
+        assert!(!scratch.stats.truncated);
+        let (f, r, u) = cam.basis();
+        for _ in 0..50 {
+            // A ray inside the frustum, traced to its first solid.
+            let h = (cam.fov_y.to_radians() * 0.5).tan();
+            let dir = f + r * rng.range(-0.95, 0.95) * h * cam.aspect + u * rng.range(-0.95, 0.95) * h;
+            let end = view.eye + dir * 2000.0;
+            let stop = world.trace(view.eye, end).map_or(1.0, |hit| hit.fraction);
+            for (t, leaf) in sampled_leaves(&world, view.eye, end, 4000) {
+                let inside = (view.eye + dir * 2000.0 * t).cmpge(Vec3A::ZERO).all()
+                    && (view.eye + dir * 2000.0 * t).cmple(Vec3A::new(512.0, 384.0, 192.0)).all();
+                if t >= stop - 0.002 || !inside {
+                    // Past the first solid, or out of the (unsealed) grid.
+                    break;
+                }
+                if (view.eye + dir * 2000.0 * t - view.eye).length() < cam.near + 1.0 {
+                    continue;
+                }
+                checked += 1;
+                assert!(
+                    out.leaves.contains(&leaf),
+                    "ray-visible leaf {leaf} missing for {cam:?}: dir {dir:?} path {:?} out {:?} marked {}",
+                    sampled_leaves(&world, view.eye, end, 4000),
+                    out.leaves,
+                    scratch.stats.marked_leaves
+                );
+            }
+        }
+    }
+    assert!(checked > 1000);
+}
+
+#[test]
+fn damaged_levels_fail_or_answer_without_panicking() {
+    let base = pillars(4);
+    let mut rng = SplitMix64::new(99);
+    let (mut rejected, mut accepted) = (0, 0);
+    for _ in 0..3000 {
+        let mut level = base.clone();
+        for _ in 0..1 + rng.below(3) {
+            mutate(&mut level, &mut rng);
+        }
+        match World::new(&level) {
+            Err(_) => rejected += 1,
+            Ok(world) => {
+                accepted += 1;
+                let mut scratch = Scratch::new(&world);
+                let mut out = Visible::default();
+                for i in 0..4 {
+                    let p = rng.point_in(Vec3A::splat(-100.0), Vec3A::splat(600.0));
+                    let cam = Camera::quake(Vec3::from(p), rng.range(0.0, 360.0), 0.0);
+                    let _ = world.leaf_at(p);
+                    let _ = world.trace(p, p + Vec3A::splat(300.0));
+                    Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+                    if i % 2 == 0 {
+                        Portal.cull(&world, &cam.view(), &mut scratch, &mut out);
+                    }
+                }
+            }
+        }
+    }
+    assert!(rejected > 1000 && accepted > 100, "rejected {rejected}, accepted {accepted}");
+}
+
+fn mutate(level: &mut Level, rng: &mut SplitMix64) {
+    let wild = |rng: &mut SplitMix64| -> i64 {
+        match rng.below(4) {
+            0 => rng.below(8) as i64 - 4,
+            1 => i64::from(i32::MAX) - rng.below(3) as i64,
+            2 => rng.below(1000) as i64,
+            _ => -(rng.below(1000) as i64),
+        }
+    };
+    let v = wild(rng);
+    match rng.below(12) {
+        0 if !level.nodes.is_empty() => {
+            let i = rng.below(level.nodes.len());
+            level.nodes[i].children[rng.below(2)] = v as i32;
+        }
+        1 if !level.nodes.is_empty() => {
+            let i = rng.below(level.nodes.len());
+            level.nodes[i].plane = v as u32;
+        }
+        2 if !level.leaves.is_empty() => {
+            let i = rng.below(level.leaves.len());
+            level.leaves[i].cluster = v as i32;
+        }
+        3 if !level.leaves.is_empty() => {
+            let i = rng.below(level.leaves.len());
+            level.leaves[i].first_face = v as u32;
+        }
+        4 if !level.leaves.is_empty() => {
+            let i = rng.below(level.leaves.len());
+            level.leaves[i].mins[rng.below(3)] = [f32::NAN, 1e30, -5.0, 700.0][rng.below(4)];
+        }
+        5 if !level.planes.is_empty() => {
+            let i = rng.below(level.planes.len());
+            level.planes[i].normal[rng.below(3)] = [f32::NAN, 0.0, 2.0, f32::INFINITY][rng.below(4)];
+        }
+        6 if !level.pvs_offsets.is_empty() => {
+            let i = rng.below(level.pvs_offsets.len());
+            level.pvs_offsets[i] = v as u32;
+        }
+        7 if !level.pvs_data.is_empty() => {
+            let n = rng.below(level.pvs_data.len());
+            level.pvs_data.truncate(n);
+        }
+        8 if !level.portals.is_empty() => {
+            let i = rng.below(level.portals.len());
+            level.portals[i].leaves[rng.below(2)] = v as u32;
+        }
+        9 if !level.portals.is_empty() => {
+            let i = rng.below(level.portals.len());
+            level.portals[i].num_vertices = v as u32;
+        }
+        10 => level.num_clusters = v as u32,
+        11 if !level.models.is_empty() => level.models[0].head_node = v as i32,
+        _ => level.models.clear(),
+    }
+}

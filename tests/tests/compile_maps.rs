@@ -1,0 +1,115 @@
+//! Real maps compile sealed, and their portal graphs hold the invariants the compiler promises.
+
+use std::collections::VecDeque;
+
+use glam::DVec3;
+use sightline_compiler::{CompileOptions, Compiled, NoProgress, Source, compile};
+use sightline_formats::{Contents, Level};
+
+fn compile_file(path: &std::path::Path) -> Compiled {
+    let text = std::fs::read_to_string(path).expect("readable map");
+    let name = path.display().to_string();
+    let map = sightline_formats::map::parse(&text, &name).expect("map parses");
+    compile(&Source::Map { map, file: name }, &CompileOptions::default(), &NoProgress).expect("compiles sealed")
+}
+
+fn v(a: [f32; 3]) -> DVec3 {
+    DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}
+
+/// The leaf holding `p` (points on a plane go to the front).
+fn leaf_at(level: &Level, p: DVec3) -> usize {
+    let mut c = level.models[0].head_node;
+    while c >= 0 {
+        let n = &level.nodes[c as usize];
+        let pl = &level.planes[n.plane as usize];
+        let d = v(pl.normal).dot(p) - pl.dist as f64;
+        c = if d >= 0.0 { n.children[0] } else { n.children[1] };
+    }
+    (-(c + 1)) as usize
+}
+
+/// Portal invariants: on the plane, inside both leaves' bounds, joining non-solid leaves, and the
+/// leaves reachable from the player start are exactly the non-solid leaves.
+fn check_portal_graph(level: &Level, start: DVec3) {
+    const EPS: f64 = 0.05;
+    let mut adjacency = vec![Vec::new(); level.leaves.len()];
+    for (i, p) in level.portals.iter().enumerate() {
+        let plane = &level.planes[p.plane as usize];
+        let first = p.first_vertex as usize;
+        let pts: Vec<DVec3> =
+            level.vertices[first..first + p.num_vertices as usize].iter().map(|&x| v(x)).collect();
+        assert!(pts.len() >= 3, "portal {i} has {} points", pts.len());
+        for &q in &pts {
+            let d = v(plane.normal).dot(q) - plane.dist as f64;
+            assert!(d.abs() < EPS, "portal {i} point {q} is {d} off its plane");
+        }
+        for &l in &p.leaves {
+            let leaf = &level.leaves[l as usize];
+            assert_ne!(leaf.contents, Contents::Solid, "portal {i} touches solid leaf {l}");
+            let (lo, hi) = (v(leaf.mins) - DVec3::splat(EPS), v(leaf.maxs) + DVec3::splat(EPS));
+            for &q in &pts {
+                assert!(q.cmpge(lo).all() && q.cmple(hi).all(), "portal {i} point {q} outside leaf {l}");
+            }
+        }
+        adjacency[p.leaves[0] as usize].push(p.leaves[1] as usize);
+        adjacency[p.leaves[1] as usize].push(p.leaves[0] as usize);
+    }
+    let first = leaf_at(level, start);
+    assert_ne!(level.leaves[first].contents, Contents::Solid, "player start in solid");
+    let mut seen = vec![false; level.leaves.len()];
+    seen[first] = true;
+    let mut queue = VecDeque::from([first]);
+    while let Some(l) = queue.pop_front() {
+        for &n in &adjacency[l] {
+            if !seen[n] {
+                seen[n] = true;
+                queue.push_back(n);
+            }
+        }
+    }
+    for (i, leaf) in level.leaves.iter().take(level.leaves.len()).enumerate() {
+        if leaf.cluster >= 0 {
+            assert!(seen[i], "kept leaf {i} is not reachable from the player start");
+        } else {
+            assert!(!seen[i] || leaf.contents != Contents::Solid);
+        }
+    }
+}
+
+fn player_start(level: &Level) -> DVec3 {
+    let text = &level.entities;
+    let at = text.find("info_player_start").expect("map has info_player_start");
+    let block_start = text[..at].rfind('{').expect("entity start");
+    let block = &text[block_start..];
+    let block = &block[..block.find('}').expect("entity end")];
+    let line = block.lines().find(|l| l.starts_with("\"origin\"")).expect("origin");
+    let nums: Vec<f64> =
+        line.split('"').nth(3).expect("value").split_whitespace().map(|t| t.parse().expect("number")).collect();
+    DVec3::new(nums[0], nums[1], nums[2])
+}
+
+#[test]
+fn representative_real_maps_compile_sealed_with_a_sound_portal_graph() {
+    let Some(dir) = sightline_tests::shared_maps() else { return };
+    for name in ["id/e1m1.map", "id/dm1.map", "id/start.map", "librequake/lq_e0m1.map"] {
+        let path = dir.join(name);
+        if !path.exists() {
+            eprintln!("note: {} absent; skipped", path.display());
+            continue;
+        }
+        let out = compile_file(&path);
+        let s = &out.stats;
+        eprintln!(
+            "{name}: {} brushes, {} faces, {} nodes, {} leaves, {} vis leaves, {} portals",
+            s.brushes, s.faces, s.nodes, s.leaves, s.vis_leaves, s.portals
+        );
+        assert!(s.vis_leaves > 0 && s.portals > 0);
+        assert_eq!(out.prt.portals.len(), out.level.portals.len());
+        for p in &out.prt.portals {
+            assert!(p.leaves.iter().all(|&l| l < out.prt.num_leaves));
+            assert!(p.winding.is_valid(0.05), "non-convex or non-planar portal winding");
+        }
+        check_portal_graph(&out.level, player_start(&out.level));
+    }
+}

@@ -1,0 +1,73 @@
+//! The thesis' error metric: ID buffers rendered by ray casting against the whole scene from random
+//! viewpoints inside a cell; a pixel is wrong when the triangle it shows is missing from the cell's
+//! PVS (which is exactly where a PVS-only render would differ).
+//!
+//! Views: position uniform in the cell volume, heading uniform, pitch uniform in ±45° (the
+//! thesis does not say where its cameras were), square image, `fov` degrees in both directions,
+//! `+Z` up. Everything is deterministic for a given seed; ID buffers are cast row-parallel.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use sightline_runtime::bvh::Bvh;
+
+use super::geom::Cell;
+use crate::scenegen::Rng;
+
+/// A viewpoint and looking direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    /// Eye.
+    pub eye: Vec3,
+    /// Unit forward.
+    pub forward: Vec3,
+}
+
+/// `n` random views inside `cell`.
+pub fn views(cell: &Cell, n: usize, seed: u64) -> Vec<View> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let f = Vec3::new(rng.unit(), rng.unit(), rng.unit());
+            let eye = cell.min + (cell.max - cell.min) * f;
+            let yaw = rng.range(0.0, std::f32::consts::TAU);
+            let pitch = rng.range(-45f32.to_radians(), 45f32.to_radians());
+            let forward = Vec3::new(pitch.cos() * yaw.cos(), pitch.cos() * yaw.sin(), pitch.sin());
+            View { eye, forward }
+        })
+        .collect()
+}
+
+/// Triangle index seen at every pixel of a `res × res` image (`u32::MAX` for nothing), rows top
+/// to bottom.
+pub fn id_buffer(bvh: &Bvh, view: &View, res: usize, fov_deg: f32) -> Vec<u32> {
+    let right = view.forward.cross(Vec3::Z).normalize_or(Vec3::X);
+    let up = right.cross(view.forward);
+    let half = (fov_deg.to_radians() * 0.5).tan();
+    let mut out = vec![u32::MAX; res * res];
+    out.par_chunks_mut(res.max(1)).enumerate().for_each(|(y, row)| {
+        let v = (1.0 - 2.0 * (y as f32 + 0.5) / res as f32) * half;
+        for (x, px) in row.iter_mut().enumerate() {
+            let u = (2.0 * (x as f32 + 0.5) / res as f32 - 1.0) * half;
+            let dir = view.forward + right * u + up * v;
+            if let Some(h) = bvh.intersect(view.eye, dir, f32::INFINITY) {
+                *px = h.triangle;
+            }
+        }
+    });
+    out
+}
+
+/// Pixels of `ids` whose triangle is not in the PVS bitset `pvs`.
+pub fn error_pixels(ids: &[u32], pvs: &[u64]) -> u64 {
+    ids.iter()
+        .filter(|&&t| t != u32::MAX && pvs.get(t as usize / 64).is_none_or(|w| w & (1 << (t % 64)) == 0))
+        .count() as u64
+}
+
+/// Error of one PVS against precomputed ID buffers: (mean, max) wrong pixels per view.
+pub fn measure(buffers: &[Vec<u32>], pvs: &[u64]) -> (f64, u64) {
+    let errs: Vec<u64> = buffers.iter().map(|b| error_pixels(b, pvs)).collect();
+    let max = errs.iter().copied().max().unwrap_or(0);
+    let mean = if errs.is_empty() { 0.0 } else { errs.iter().sum::<u64>() as f64 / errs.len() as f64 };
+    (mean, max)
+}

@@ -1,0 +1,522 @@
+//! Guided visibility sampling of one box view cell (Wonka et al. 2006, with the extensions of the
+//! thesis digested in `reference/seeds/000_gvs_thesis.md`).
+//!
+//! The loop: a quasi-random ray leaves the cell ([`Cell::sample_ray`]); every ray whose first hit
+//! is a triangle not yet in the PVS adds it (with the ray's origin and hit point) and queues it as a
+//! seed. Each seed gets adaptive border sampling (ABS): rays from the seed's origin to the nine
+//! points of the enlarged outline ([`enlarge`]) and along its nine edges, either by recursive
+//! bisection (stock GVS, depth-capped, optionally with a distance-scaled threshold) or by the
+//! edge-point walk (one ray per object along the edge). Every point and edge ray is checked for a
+//! depth discontinuity (hit much nearer than the aimed point); a discontinuity starts reverse
+//! sampling: a ray in the plane (origin, aimed point, seed hit) grazing the occluder's edge, started
+//! from where that line leaves the cell. Sampling stops when a window of rays found too few new
+//! triangles, or at the ray caps.
+//!
+//! Runs are sequential and deterministic: the same scene, cell and [`Params`] give the same PVS.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use glam::Vec3;
+use serde::Serialize;
+use sightline_runtime::bvh::Bvh;
+
+use super::geom::{Cell, boundary_crossings, enlarge};
+
+/// How ABS samples the edges of the enlarged outline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum EdgeMode {
+    /// Recursive bisection while the two end rays hit different triangles (stock GVS).
+    Bisect,
+    /// The thesis' edge-point walk ("brzegowy"): from one end, jump just past the boundary of the
+    /// object hit there, one ray per distinct object; bisection only where both ends miss.
+    EdgePoint,
+}
+
+/// GVS parameters. Defaults (see [`Params::default`]) are the "stock" configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Params {
+    /// Angular offset of the enlarged outline (radians). Default 1e-3.
+    pub eps: f32,
+    /// Edge sampling strategy. Default [`EdgeMode::Bisect`].
+    pub edge: EdgeMode,
+    /// Deepest bisection of an outline edge (the thesis' `tresh ≈ 2^-14` is depth 14). Default 14.
+    pub max_depth: u32,
+    /// Distance-scaled threshold ("adt"): stop bisecting a segment whose angular size seen from the
+    /// origin is under this (radians). `None` disables it. Default `None`.
+    pub adt: Option<f32>,
+    /// Cast a ray at the middle of every outline edge before walking it (edge-point mode only).
+    /// Default true.
+    pub midpoint: bool,
+    /// A hit nearer than the aimed point by more than this fraction of the aimed distance is a
+    /// depth discontinuity. Default 0.05.
+    pub disc: f32,
+    /// Reverse sampling at discontinuities. Default true.
+    pub reverse: bool,
+    /// Silhouette re-seeding (see `Gvs::reseed_silhouette`; not in the thesis). Default false.
+    pub silhouette: bool,
+    /// Cap on all rays. Default 10 M (the thesis' cap).
+    pub max_rays: u64,
+    /// Cap on random rays. Default 1 M.
+    pub max_random: u64,
+    /// Termination window: stop when the last `window` rays found fewer than `min_new` new
+    /// triangles. Default 100 k.
+    pub window: u64,
+    /// See `window`. Default 1.
+    pub min_new: u32,
+    /// First Halton index of the random rays (different seeds give different ray sets). Default 1.
+    pub seed: u64,
+}
+
+impl Default for Params {
+    fn default() -> Params {
+        Params {
+            eps: 1e-3,
+            edge: EdgeMode::Bisect,
+            max_depth: 14,
+            adt: None,
+            midpoint: true,
+            disc: 0.05,
+            reverse: true,
+            silhouette: false,
+            max_rays: 10_000_000,
+            max_random: 1_000_000,
+            window: 100_000,
+            min_new: 1,
+            seed: 1,
+        }
+    }
+}
+
+/// Ray counts and other statistics of one run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// All rays cast.
+    pub rays: u64,
+    /// Random rays.
+    pub random: u64,
+    /// Rays to the points of enlarged outlines.
+    pub point: u64,
+    /// Rays along outline edges.
+    pub edge: u64,
+    /// Reverse-sampling rays.
+    pub reverse: u64,
+    /// Rays re-cast at a previous PVS's hit points (incremental update).
+    pub reuse: u64,
+    /// Silhouette re-seeding rays.
+    pub silhouette: u64,
+    /// Depth discontinuities detected.
+    pub discontinuities: u64,
+    /// Seeds processed by ABS.
+    pub seeds: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// One PVS entry: a triangle and the ray that found it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Entry {
+    /// Triangle index.
+    pub tri: u32,
+    /// Origin of the ray that found it (on or in the cell).
+    pub origin: Vec3,
+    /// Where that ray hit it.
+    pub hit: Vec3,
+}
+
+/// The result of GVS for one cell: the PVS in discovery order, with the rays that found it.
+#[derive(Debug, Clone)]
+pub struct Pvs {
+    /// The cell.
+    pub cell: Cell,
+    /// Entries in discovery order.
+    pub entries: Vec<Entry>,
+    /// Statistics.
+    pub stats: Stats,
+}
+
+impl Pvs {
+    /// Membership bitset over `n` triangles.
+    pub fn bitset(&self, n: usize) -> Vec<u64> {
+        let mut bits = vec![0u64; n.div_ceil(64)];
+        for e in &self.entries {
+            if let Some(w) = bits.get_mut(e.tri as usize / 64) {
+                *w |= 1 << (e.tri % 64);
+            }
+        }
+        bits
+    }
+
+    /// Triangle indices, sorted.
+    pub fn sorted(&self) -> Vec<u32> {
+        let mut v: Vec<u32> = self.entries.iter().map(|e| e.tri).collect();
+        v.sort_unstable();
+        v
+    }
+}
+
+/// Kinds of ray, for statistics.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Class {
+    Random,
+    Point,
+    Edge,
+    Reverse,
+    Reuse,
+    Silhouette,
+}
+
+/// No triangle: the ray escaped.
+const NONE: u32 = u32::MAX;
+
+/// A cast ray: what it hit (`NONE` for nothing) and where (the aimed point when nothing).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Sample {
+    pub(super) tri: u32,
+    pub(super) pos: Vec3,
+}
+
+/// A queued ABS seed.
+#[derive(Debug, Clone, Copy)]
+struct Seed {
+    origin: Vec3,
+    tri: u32,
+    hit: Vec3,
+}
+
+/// Most steps of one edge-point walk before it gives up.
+const WALK_STEPS: u32 = 64;
+
+/// The sampler's state for one cell.
+#[derive(Debug)]
+pub(super) struct Gvs<'a> {
+    tris: &'a [[Vec3; 3]],
+    bvh: &'a Bvh,
+    pub(super) cell: Cell,
+    pub(super) p: Params,
+    in_pvs: Vec<u64>,
+    /// Per triangle, the cell corners silhouette re-seeding has tried (bit k = corner k).
+    tried: Vec<u8>,
+    pub(super) entries: Vec<Entry>,
+    queue: VecDeque<Seed>,
+    pub(super) stats: Stats,
+    /// Rays cast when the current termination window began, and new triangles found since.
+    window_start: u64,
+    window_new: u32,
+}
+
+impl<'a> Gvs<'a> {
+    pub(super) fn new(tris: &'a [[Vec3; 3]], bvh: &'a Bvh, cell: Cell, p: Params) -> Gvs<'a> {
+        Gvs {
+            tris,
+            bvh,
+            cell,
+            p,
+            in_pvs: vec![0; tris.len().div_ceil(64)],
+            tried: vec![0; tris.len()],
+            entries: Vec::new(),
+            queue: VecDeque::new(),
+            stats: Stats::default(),
+            window_start: 0,
+            window_new: 0,
+        }
+    }
+
+    /// Add `tri` to the PVS; returns false when it was there already.
+    pub(super) fn insert(&mut self, tri: u32, origin: Vec3, hit: Vec3) -> bool {
+        let Some(w) = self.in_pvs.get_mut(tri as usize / 64) else {
+            return false;
+        };
+        let bit = 1 << (tri % 64);
+        if *w & bit != 0 {
+            return false;
+        }
+        *w |= bit;
+        self.entries.push(Entry { tri, origin, hit });
+        self.window_new += 1;
+        true
+    }
+
+    fn out_of_rays(&self) -> bool {
+        self.stats.rays >= self.p.max_rays
+    }
+
+    /// Cast one ray from `o` towards `target` without touching the PVS.
+    pub(super) fn cast(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
+        self.stats.rays += 1;
+        match class {
+            Class::Random => self.stats.random += 1,
+            Class::Point => self.stats.point += 1,
+            Class::Edge => self.stats.edge += 1,
+            Class::Reverse => self.stats.reverse += 1,
+            Class::Reuse => self.stats.reuse += 1,
+            Class::Silhouette => self.stats.silhouette += 1,
+        }
+        match self.bvh.intersect(o, dir, f32::INFINITY) {
+            Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t },
+            None => Sample { tri: NONE, pos: o + dir },
+        }
+    }
+
+    /// Cast, and add a new triangle to the PVS and the seed queue (`handle_ray`).
+    pub(super) fn handle(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
+        let s = self.cast(o, dir, class);
+        if s.tri != NONE && self.insert(s.tri, o, s.pos) {
+            self.queue.push_back(Seed { origin: o, tri: s.tri, hit: s.pos });
+        }
+        s
+    }
+
+    /// Queue an existing PVS entry for ABS (incremental update of new triangles).
+    pub(super) fn enqueue(&mut self, origin: Vec3, tri: u32, hit: Vec3) {
+        self.queue.push_back(Seed { origin, tri, hit });
+    }
+
+    /// Run until termination: drain the queue, then random rays, checking the window.
+    pub(super) fn run(&mut self) {
+        let mut halton_index = self.p.seed.max(1);
+        loop {
+            while let Some(seed) = self.queue.pop_front() {
+                if self.out_of_rays() {
+                    self.queue.clear();
+                    break;
+                }
+                self.abs(seed);
+            }
+            if self.out_of_rays() || self.stats.random >= self.p.max_random {
+                break;
+            }
+            if self.stats.rays - self.window_start >= self.p.window {
+                if self.window_new < self.p.min_new {
+                    break;
+                }
+                self.window_start = self.stats.rays;
+                self.window_new = 0;
+            }
+            let (o, d) = self.cell.sample_ray(halton_index);
+            halton_index += 1;
+            self.handle(o, d, Class::Random);
+        }
+    }
+
+    /// Adaptive border sampling around a seed.
+    fn abs(&mut self, seed: Seed) {
+        self.stats.seeds += 1;
+        let Some(tri) = self.tris.get(seed.tri as usize) else {
+            return;
+        };
+        let o = seed.origin;
+        let pts = enlarge(tri, o, self.p.eps);
+        let samples = pts.map(|p| {
+            let s = self.handle(o, p - o, Class::Point);
+            self.check_discontinuity(o, p, s, seed.hit);
+            s
+        });
+        if self.p.silhouette {
+            self.reseed_silhouette(seed, tri, &pts, &samples);
+        }
+        for i in 0..9 {
+            let j = (i + 1) % 9;
+            match self.p.edge {
+                EdgeMode::Bisect => self.bisect(o, pts[i], samples[i], pts[j], samples[j], 0, seed.hit),
+                EdgeMode::EdgePoint => self.walk_edge(o, pts[i], samples[i], pts[j], samples[j], seed.hit),
+            }
+        }
+    }
+
+    /// Silhouette re-seeding (this project's extension): outline points whose ray escaped or hit
+    /// much farther than aimed lie past a silhouette of the seed's surface; what hides behind that
+    /// silhouette is seen from the cell corner furthest out in that direction. Cast from that corner
+    /// at the triangle's centre and, when it hits the triangle, queue it as a seed from there, so
+    /// ABS runs again from the new origin. Each (triangle, corner) pair is tried once.
+    fn reseed_silhouette(&mut self, seed: Seed, tri: &[Vec3; 3], pts: &[Vec3; 9], samples: &[Sample; 9]) {
+        let o = seed.origin;
+        let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+        let view = centre - o;
+        let mut corners = 0u8;
+        for (p, s) in pts.iter().zip(samples) {
+            let aimed = (*p - o).length();
+            let far = s.tri == NONE || (s.pos - o).length() > aimed * (1.0 + self.p.disc);
+            if !far {
+                continue;
+            }
+            let out = (*p - centre).reject_from(view);
+            let k = u8::from(out.x > 0.0) | u8::from(out.y > 0.0) << 1 | u8::from(out.z > 0.0) << 2;
+            corners |= 1 << k;
+        }
+        let Some(tried) = self.tried.get_mut(seed.tri as usize) else {
+            return;
+        };
+        let todo = corners & !*tried;
+        *tried |= corners;
+        for k in 0..8u8 {
+            if todo & (1 << k) == 0 || self.out_of_rays() {
+                continue;
+            }
+            let pick = |bit: u8, axis: usize| if k & bit != 0 { self.cell.max[axis] } else { self.cell.min[axis] };
+            let corner = Vec3::new(pick(1, 0), pick(2, 1), pick(4, 2));
+            if (corner - o).length_squared() == 0.0 {
+                continue;
+            }
+            let s = self.cast(corner, centre - corner, Class::Silhouette);
+            if s.tri == seed.tri {
+                self.queue.push_back(Seed { origin: corner, tri: seed.tri, hit: s.pos });
+            } else if s.tri != NONE && self.insert(s.tri, corner, s.pos) {
+                self.queue.push_back(Seed { origin: corner, tri: s.tri, hit: s.pos });
+            }
+        }
+    }
+
+    /// Cast an edge ray at `p`, handle it and check it for a discontinuity.
+    fn edge_ray(&mut self, o: Vec3, p: Vec3, e2: Vec3) -> Sample {
+        let s = self.handle(o, p - o, Class::Edge);
+        self.check_discontinuity(o, p, s, e2);
+        s
+    }
+
+    /// Stock recursive subdivision of the outline edge `a`–`b`.
+    #[allow(clippy::too_many_arguments)]
+    fn bisect(&mut self, o: Vec3, a: Vec3, sa: Sample, b: Vec3, sb: Sample, depth: u32, e2: Vec3) {
+        if sa.tri == sb.tri || depth >= self.p.max_depth || self.out_of_rays() {
+            return;
+        }
+        let m = (a + b) * 0.5;
+        if let Some(adt) = self.p.adt
+            && (a - b).length() < adt * (m - o).length()
+        {
+            return;
+        }
+        let sm = self.edge_ray(o, m, e2);
+        self.bisect(o, a, sa, m, sm, depth + 1, e2);
+        self.bisect(o, m, sm, b, sb, depth + 1, e2);
+    }
+
+    /// The edge-point walk over the outline edge `a`–`b` (thesis `process_edge`).
+    pub(super) fn walk_edge(&mut self, o: Vec3, a: Vec3, sa: Sample, b: Vec3, sb: Sample, e2: Vec3) {
+        if sa.tri == sb.tri {
+            return;
+        }
+        if self.p.midpoint {
+            let m = (a + b) * 0.5;
+            let sm = self.edge_ray(o, m, e2);
+            let mut steps = 0;
+            self.walk(o, a, sa, m, sm, e2, &mut steps, 0);
+            let mut steps = 0;
+            self.walk(o, m, sm, b, sb, e2, &mut steps, 0);
+        } else {
+            let mut steps = 0;
+            self.walk(o, a, sa, b, sb, e2, &mut steps, 0);
+        }
+    }
+
+    /// One segment of the walk: step from `a` past the far boundary of its object, or from `b` past
+    /// the near boundary of its object, or (both ends escaped, or no boundary found) bisect.
+    #[allow(clippy::too_many_arguments)]
+    fn walk(
+        &mut self,
+        o: Vec3,
+        a: Vec3,
+        sa: Sample,
+        b: Vec3,
+        sb: Sample,
+        e2: Vec3,
+        steps: &mut u32,
+        depth: u32,
+    ) {
+        if sa.tri == sb.tri || *steps >= WALK_STEPS || depth >= self.p.max_depth || self.out_of_rays() {
+            return;
+        }
+        *steps += 1;
+        let len = (b - a).length();
+        // Nothing narrower than the enlargement offset is resolved.
+        let eps = self.p.eps;
+        if !(len > eps * ((a + b) * 0.5 - o).length()) {
+            return;
+        }
+        // Step past a boundary by a twentieth of the enlargement offset (at most a quarter of the
+        // segment), in units of the segment.
+        let push = |x: Vec3| (0.05 * eps * (x - o).length()).min(0.25 * len) / len;
+        if let Some(tri) = self.tris.get(sa.tri as usize) {
+            let (c, k) = boundary_crossings(tri, o, a, b);
+            if let Some(&(s, x)) = c[..k].iter().max_by(|p, q| p.0.total_cmp(&q.0)) {
+                let s = s + push(x);
+                if s > 0.0 && s < 1.0 {
+                    let m = a + (b - a) * s;
+                    let sm = self.edge_ray(o, m, e2);
+                    if sm.tri != sa.tri {
+                        self.walk(o, m, sm, b, sb, e2, steps, depth);
+                        return;
+                    }
+                }
+            }
+        }
+        if let Some(tri) = self.tris.get(sb.tri as usize) {
+            let (c, k) = boundary_crossings(tri, o, a, b);
+            if let Some(&(s, x)) = c[..k].iter().min_by(|p, q| p.0.total_cmp(&q.0)) {
+                let s = s - push(x);
+                if s > 0.0 && s < 1.0 {
+                    let m = a + (b - a) * s;
+                    let sm = self.edge_ray(o, m, e2);
+                    if sm.tri != sb.tri {
+                        self.walk(o, a, sa, m, sm, e2, steps, depth);
+                        return;
+                    }
+                }
+            }
+        }
+        let m = (a + b) * 0.5;
+        let sm = self.edge_ray(o, m, e2);
+        self.walk(o, a, sa, m, sm, e2, steps, depth + 1);
+        self.walk(o, m, sm, b, sb, e2, steps, depth + 1);
+    }
+
+    /// `check_discontinuity`: the ray from `o` aimed at `p` hit `s`; when that is much nearer than
+    /// `p`, count it and (when enabled) reverse-sample into the gap behind the occluder.
+    /// `e2` is a point known visible on the far surface (the seed's hit point).
+    pub(super) fn check_discontinuity(&mut self, o: Vec3, p: Vec3, s: Sample, e2: Vec3) {
+        if s.tri == NONE {
+            return;
+        }
+        let aimed = (p - o).length();
+        if aimed - (s.pos - o).length() <= self.p.disc * aimed {
+            return;
+        }
+        self.stats.discontinuities += 1;
+        if self.p.reverse && !self.out_of_rays() {
+            self.reverse(o, p, e2, s.tri);
+        }
+    }
+
+    /// Reverse sampling: the occluder `near` hides the aimed point `e1` from `o`; find the point of
+    /// its boundary in the plane (o, e1, e2) on the side of `e2`, push it just outside, and shoot
+    /// from where the line e1 → that point leaves through the cell back at `e1`.
+    fn reverse(&mut self, o: Vec3, e1: Vec3, e2: Vec3, near: u32) {
+        let Some(tri) = self.tris.get(near as usize) else {
+            return;
+        };
+        let (c, k) = boundary_crossings(tri, o, e1, e2);
+        let Some(&(_, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|p, q| p.0.total_cmp(&q.0)) else {
+            return;
+        };
+        let view = x - o;
+        let side = (e2 - e1).reject_from(view).normalize_or_zero();
+        let x = x + side * (self.p.eps * view.length());
+        let d = x - e1;
+        let Some((l0, _)) = self.cell.clip(e1, d, 1.0, f32::INFINITY) else {
+            return;
+        };
+        let origin = e1 + d * l0;
+        if (origin - e1).length_squared() > 0.0 {
+            self.handle(origin, e1 - origin, Class::Reverse);
+        }
+    }
+}
+
+/// Run GVS for `cell` over `tris` (indexed by `bvh`).
+pub fn run(tris: &[[Vec3; 3]], bvh: &Bvh, cell: Cell, params: Params) -> Pvs {
+    let start = Instant::now();
+    let mut g = Gvs::new(tris, bvh, cell, params);
+    g.run();
+    g.stats.seconds = start.elapsed().as_secs_f64();
+    Pvs { cell, entries: g.entries, stats: g.stats }
+}

@@ -1,0 +1,102 @@
+//! Triangle scenes for GVS: generated (`gen:<kind>:<size>`), `.obj` meshes, and the faces of a
+//! compiled level (fanned into triangles, remembering which face each triangle came from).
+
+use glam::Vec3;
+use sightline_formats::Level;
+
+use super::geom::Cell;
+use crate::scenegen;
+
+/// A triangle soup with where it came from.
+#[derive(Debug, Clone, Default)]
+pub struct TriScene {
+    /// The triangles.
+    pub triangles: Vec<[Vec3; 3]>,
+    /// For a level: the face index of every triangle.
+    pub face_of: Option<Vec<u32>>,
+    /// View cells the scene suggests (`--cell auto`).
+    pub suggested: Vec<Cell>,
+}
+
+impl TriScene {
+    /// Bounds of all triangles (a zero box at the origin when empty).
+    pub fn bounds(&self) -> Cell {
+        let mut lo = Vec3::INFINITY;
+        let mut hi = Vec3::NEG_INFINITY;
+        for t in &self.triangles {
+            for p in t {
+                if p.is_finite() {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+            }
+        }
+        if lo.cmpgt(hi).any() { Cell::new(Vec3::ZERO, Vec3::ZERO) } else { Cell::new(lo, hi) }
+    }
+}
+
+/// A generated scene.
+pub fn generated(kind: scenegen::Kind, size: u32, seed: u64) -> TriScene {
+    let s = scenegen::generate(kind, size, seed);
+    TriScene {
+        triangles: s.triangles,
+        face_of: None,
+        suggested: s.cells.into_iter().map(|(a, b)| Cell::new(a, b)).collect(),
+    }
+}
+
+/// The faces of `level` fanned into triangles. Faces whose corners fall outside the vertex array
+/// are skipped (a level read from disk has been validated, so this only guards hand-made ones).
+pub fn from_level(level: &Level) -> TriScene {
+    let mut triangles = Vec::new();
+    let mut face_of = Vec::new();
+    for (fi, f) in level.faces.iter().enumerate() {
+        let first = f.first_vertex as usize;
+        let Some(vs) = level.vertices.get(first..first.saturating_add(f.num_vertices as usize)) else {
+            continue;
+        };
+        let v = |k: usize| Vec3::from_array(vs[k]);
+        for k in 1..vs.len().saturating_sub(1) {
+            triangles.push([v(0), v(k), v(k + 1)]);
+            face_of.push(fi as u32);
+        }
+    }
+    TriScene { triangles, face_of: Some(face_of), suggested: Vec::new() }
+}
+
+/// The open leaves of `level` as view cells, each shrunk by `margin` on every side (so the cell
+/// does not touch the walls it is bounded by); leaves thinner than twice the margin keep their
+/// middle plane.
+pub fn leaf_cells(level: &Level, margin: f32) -> Vec<Cell> {
+    level
+        .leaves
+        .iter()
+        .filter(|l| l.contents.is_open() && l.cluster >= 0)
+        .map(|l| {
+            let (a, b) = (Vec3::from_array(l.mins), Vec3::from_array(l.maxs));
+            let m = ((b - a) * 0.5).min(Vec3::splat(margin)).max(Vec3::ZERO);
+            Cell::new(a + m, b - m)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_formats::Face;
+
+    #[test]
+    fn level_faces_fan_into_triangles() {
+        let level = Level {
+            vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            faces: vec![
+                Face { plane: 0, first_vertex: 0, num_vertices: 4, texture: 0 },
+                Face { plane: 0, first_vertex: 2, num_vertices: 9, texture: 0 },
+            ],
+            ..Level::default()
+        };
+        let s = from_level(&level);
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.face_of, Some(vec![0, 0]));
+    }
+}

@@ -1,0 +1,87 @@
+//! Incremental PVS update when a view cell moves (thesis §5).
+//!
+//! Given the PVS of a cell with the ray that found each entry, the PVS of the cell moved by `v`:
+//! 1. re-cast every stored ray from its origin moved by `v` (clamped into the new cell) at its old
+//!    hit point: triangles hit that were in the old PVS form the "still visible" set (EPVS, added
+//!    without ABS); triangles hit that were not are new and get full ABS;
+//! 2. sample the newly exposed area (PVA) around each EPVS triangle: one ray just past the
+//!    triangle's boundary in the direction of `v` (the `edgepoint` ray), and the edges of the
+//!    triangle that face `v`, shifted outwards, walked with the edge-point walk;
+//! 3. resume ordinary GVS (random rays, ABS, reverse sampling) until the termination window.
+//!
+//! Like GVS itself the result is a sample: it differs from a fresh run on the moved cell by a
+//! sampling error of the same kind as two fresh runs with different Halton seeds (measured in the
+//! tests: the symmetric difference stays within a few percent of the PVS).
+
+use std::time::Instant;
+
+use glam::Vec3;
+use sightline_runtime::bvh::Bvh;
+
+use super::geom::boundary_crossings;
+use super::sampler::{Class, Gvs, Params, Pvs};
+
+/// The PVS of `prev.cell` moved by `v`, reusing `prev`.
+pub fn update(tris: &[[Vec3; 3]], bvh: &Bvh, prev: &Pvs, v: Vec3, params: Params) -> Pvs {
+    let start = Instant::now();
+    let cell = prev.cell.translated(v);
+    let old = prev.bitset(tris.len());
+    let was_in = |t: u32| old.get(t as usize / 64).is_some_and(|w| w & (1 << (t % 64)) != 0);
+    let mut g = Gvs::new(tris, bvh, cell, params);
+    let mut still = Vec::new();
+    for e in &prev.entries {
+        let o = cell.clamp(e.origin + v);
+        let s = g.cast(o, e.hit - o, Class::Reuse);
+        if s.tri == u32::MAX || !g.insert(s.tri, o, s.pos) {
+            continue;
+        }
+        if was_in(s.tri) {
+            still.push((s.tri, o, s.pos));
+        } else {
+            g.enqueue(o, s.tri, s.pos);
+        }
+    }
+    for (tri, o, hit) in still {
+        pva_sampling(&mut g, tris, tri, o, hit, v);
+    }
+    g.run();
+    g.stats.seconds = start.elapsed().as_secs_f64();
+    Pvs { cell, entries: g.entries, stats: g.stats }
+}
+
+/// Rays into the area that moving by `v` uncovers behind triangle `tri`, seen from `o`.
+fn pva_sampling(g: &mut Gvs<'_>, tris: &[[Vec3; 3]], tri: u32, o: Vec3, hit: Vec3, v: Vec3) {
+    let Some(t) = tris.get(tri as usize) else {
+        return;
+    };
+    let eps = g.p.eps;
+    // The `edgepoint` ray: just past the boundary of `t` from `hit` along `v`.
+    let (c, k) = boundary_crossings(t, o, hit, hit + v);
+    if let Some(&(s, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|a, b| a.0.total_cmp(&b.0)) {
+        let push = eps * (x - o).length() / v.length().max(f32::MIN_POSITIVE);
+        let p = hit + v * (s + push);
+        let sp = g.handle(o, p - o, Class::Edge);
+        g.check_discontinuity(o, p, sp, hit);
+    }
+    // The edges of `t` facing the projected motion, shifted outwards by the angular offset.
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let vp = v.reject_from(n).normalize_or_zero();
+    if vp == Vec3::ZERO {
+        return;
+    }
+    for i in 0..3 {
+        let (a, b, opposite) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+        let out = (b - a).cross(n);
+        let out = if out.dot(opposite - a) > 0.0 { -out } else { out };
+        if out.dot(vp) <= 0.0 {
+            continue;
+        }
+        let pa = a + vp * (eps * (a - o).length());
+        let pb = b + vp * (eps * (b - o).length());
+        let sa = g.handle(o, pa - o, Class::Edge);
+        g.check_discontinuity(o, pa, sa, hit);
+        let sb = g.handle(o, pb - o, Class::Edge);
+        g.check_discontinuity(o, pb, sb, hit);
+        g.walk_edge(o, pa, sa, pb, sb, hit);
+    }
+}
