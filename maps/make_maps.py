@@ -217,16 +217,17 @@ def main():
           world, [point("info_player_start", [64, 64, 24]), marker("stairs_top", [704, 128, 160]),
                   marker("behind_pillars", [64, 448, 64])])
 
-    # thin_leaf.map: the doorway lintel face sits 0.01 units off the wall face.
+    # thin_leaf.map: the wall between the rooms is two 8-unit slabs 0.01 apart; the doorway
+    # crosses the 0.01-thin gap, so sight from A to B passes through a 0.01-thin leaf.
     a = ([0, 0, 0], [256, 256, 128])
     b = ([272, 0, 0], [528, 256, 128])
-    solids = carve(shell(*a) + shell(*b), [a, b, ([256, 96, 0], [272, 160, 96])])
-    lintel = ([256, 96, 96], [272, 160, 128])
-    solids = carve(solids, [lintel]) + [([256.01, 96, 96], [272, 160, 128])]
+    solids = carve(shell(*a) + shell(*b), [a, b, ([256, 0, 0], [272, 256, 128])])
+    door = ([256, 96, 0], [272, 160, 96])
+    walls = carve([([256, 0, 0], [264, 256, 128]), ([264.01, 0, 0], [272, 256, 128])], [door])
     write("thin_leaf.map",
-          "// Two rooms through a doorway whose lintel starts 0.01 units past the wall face: the\n"
-          "// 0.01-thin leaf this makes in the doorway must not block sight (A and B see each other).",
-          [box(lo, hi) for lo, hi in solids],
+          "// Two rooms whose shared wall is two 8-unit slabs 0.01 units apart (x = 264 and 264.01);\n"
+          "// the doorway crosses the gap, so sight from A to B passes through a 0.01-thin leaf.",
+          [box(lo, hi) for lo, hi in solids + walls],
           [point("info_player_start", [128, 128, 24]), marker("room_a", [128, 128, 64]),
            marker("room_b", [400, 128, 64])])
 

@@ -25,6 +25,9 @@ pub struct BrushSide {
     pub used: bool,
     /// A hint side: chosen as a splitter before anything else.
     pub hint: bool,
+    /// Part of the side survived face CSG: it borders open space. Visible sides are splitters
+    /// before invisible ones (which would only cut open space along buried faces).
+    pub visible: bool,
 }
 
 /// A convex brush (or a piece of one after splits).
@@ -88,7 +91,13 @@ impl Brush {
             }
             if let Some(w) = w.map(|w| w.cleaned(ON_EPSILON)).filter(|w| !w.is_empty()) {
                 map[i] = Some(sides.len());
-                sides.push(BrushSide { plane: spec.plane, winding: w, used: false, hint: spec.hint });
+                sides.push(BrushSide {
+                    plane: spec.plane,
+                    winding: w,
+                    used: false,
+                    hint: spec.hint,
+                    visible: false,
+                });
             }
         }
         if sides.is_empty() {
@@ -183,8 +192,14 @@ impl Brush {
                 back.push(BrushSide { winding: w, ..s.clone() });
             }
         }
-        front.push(BrushSide { plane: plane ^ 1, winding: mid.reversed(), used: true, hint: false });
-        back.push(BrushSide { plane, winding: mid, used: true, hint: false });
+        front.push(BrushSide {
+            plane: plane ^ 1,
+            winding: mid.reversed(),
+            used: true,
+            hint: false,
+            visible: false,
+        });
+        back.push(BrushSide { plane, winding: mid, used: true, hint: false, visible: false });
         let make = |sides: Vec<BrushSide>| {
             (sides.len() >= 4).then(|| Brush { bounds: bounds_of(&sides), sides, ..*self })
         };
@@ -213,7 +228,10 @@ mod tests {
         assert!((b.volume(&planes) - 64.0f64.powi(3)).abs() < 1e-6);
         for s in &b.sides {
             let wp = s.winding.plane().expect("plane");
-            assert!(wp.same_as(planes.get(s.plane as usize)) || wp.normal.dot(planes.get(s.plane as usize).normal) > 0.999);
+            assert!(
+                wp.same_as(planes.get(s.plane as usize))
+                    || wp.normal.dot(planes.get(s.plane as usize).normal) > 0.999
+            );
         }
     }
 
@@ -238,6 +256,9 @@ mod tests {
         let specs = [SideSpec { plane: a, hint: false }, SideSpec { plane: b, hint: false }];
         assert_eq!(Brush::from_planes(&planes, &specs, Contents::Solid).err(), Some(BrushProblem::Unbounded));
         let flat = [SideSpec { plane: a, hint: false }, SideSpec { plane: a ^ 1, hint: false }];
-        assert_eq!(Brush::from_planes(&planes, &flat, Contents::Solid).err(), Some(BrushProblem::AllDegenerate));
+        assert_eq!(
+            Brush::from_planes(&planes, &flat, Contents::Solid).err(),
+            Some(BrushProblem::AllDegenerate)
+        );
     }
 }

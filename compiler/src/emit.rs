@@ -15,7 +15,9 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use sightline_formats::geom::ON_EPSILON;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
-use sightline_formats::{Aabb, Contents, Face, Leaf, Level, LevelPlane, Model, Node, PlaneSet, Portal, Winding};
+use sightline_formats::{
+    Aabb, Contents, Face, Leaf, Level, LevelPlane, Model, Node, PlaneSet, Portal, Winding,
+};
 
 use crate::bsp::{Tree, TreeNode};
 use crate::csg::CsgFace;
@@ -73,11 +75,8 @@ pub fn emit(
     textures: Vec<String>,
 ) -> Emitted {
     let mut out = Out { level: Level { entities, textures, ..Level::default() } };
-    out.level.planes = planes
-        .planes()
-        .iter()
-        .map(|p| LevelPlane { normal: f3(p.normal), dist: p.dist as f32 })
-        .collect();
+    out.level.planes =
+        planes.planes().iter().map(|p| LevelPlane { normal: f3(p.normal), dist: p.dist as f32 }).collect();
 
     // World tree.
     let mut leaf_map = vec![u32::MAX; world.tree.nodes.len()];
@@ -152,12 +151,7 @@ pub fn emit(
         }
         let leaves = p.nodes.map(|n| leaf_map[n as usize]);
         let first_vertex = out.push_winding(&p.winding);
-        out.level.portals.push(Portal {
-            leaves,
-            plane,
-            first_vertex,
-            num_vertices: p.winding.len() as u32,
-        });
+        out.level.portals.push(Portal { leaves, plane, first_vertex, num_vertices: p.winding.len() as u32 });
         let clusters = leaves.map(|l| out.level.leaves[l as usize].cluster as u32);
         if clusters[0] != clusters[1] {
             prt.portals.push(PrtPortal { leaves: clusters, winding: p.winding.clone() });
@@ -257,7 +251,12 @@ fn emit_r(
     }
     let TreeNode::Node { plane, children, .. } = node else { return -1 };
     let index = out.level.nodes.len();
-    out.level.nodes.push(Node { plane: *plane, children: [0, 0], mins: f3(bounds.mins), maxs: f3(bounds.maxs) });
+    out.level.nodes.push(Node {
+        plane: *plane,
+        children: [0, 0],
+        mins: f3(bounds.mins),
+        maxs: f3(bounds.maxs),
+    });
     let f = emit_r(out, tree, contents, all_solid, leaf_map, children[0]);
     let k = emit_r(out, tree, contents, all_solid, leaf_map, children[1]);
     out.level.nodes[index].children = [f, k];

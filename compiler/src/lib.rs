@@ -57,8 +57,10 @@ pub enum Source {
 pub struct CompileOptions {
     /// Worker threads (`None`: rayon's default).
     pub threads: Option<usize>,
-    /// Return a level even when the map leaks (without filling the outside).
+    /// Return a level even when the map leaks (without filling the outside, and without vis).
     pub allow_leak: bool,
+    /// Run vis on the portals and store the PVS in the level (`None`: stop after portals).
+    pub vis: Option<vis::VisOptions>,
 }
 
 /// Receives progress; the CLI draws bars with it.
@@ -232,6 +234,9 @@ pub enum CompileError {
     /// The map leaks (and leaks were not allowed).
     #[error("{0}")]
     Leak(Box<LeakReport>),
+    /// Vis failed.
+    #[error("vis: {0}")]
+    Vis(String),
     /// The worker pool could not start.
     #[error("could not start {threads} worker threads: {message}")]
     Threads {
@@ -253,6 +258,59 @@ pub struct Compiled {
     pub stats: Stats,
     /// The leak, when `allow_leak` let a leaking map through.
     pub leak: Option<LeakReport>,
+    /// Vis statistics when vis ran.
+    pub vis: Option<vis::VisStats>,
+}
+
+/// Store vis rows in `level`: one Quake-RLE row per cluster (see [`Level`]'s conventions).
+pub fn store_pvs(level: &mut Level, result: &vis::VisResult) {
+    let clusters = result.num_clusters();
+    let row_bytes = clusters.div_ceil(8);
+    let mut bytes = Vec::with_capacity(row_bytes + 8);
+    level.pvs_offsets.clear();
+    level.pvs_data.clear();
+    for c in 0..clusters {
+        bytes.clear();
+        for word in result.cluster_row(c) {
+            bytes.extend_from_slice(&word.to_le_bytes());
+        }
+        bytes.truncate(row_bytes);
+        level.pvs_offsets.push(level.pvs_data.len() as u32);
+        sightline_formats::rle::encode_row(&bytes, &mut level.pvs_data);
+    }
+}
+
+/// Adapts vis progress reports (phase, done, total) to a [`Progress`].
+struct VisProgressBridge<'a> {
+    progress: &'a dyn Progress,
+    state: std::sync::Mutex<Option<(vis::VisPhase, usize)>>,
+}
+
+impl VisProgressBridge<'_> {
+    fn report(&self, p: vis::VisProgress) {
+        let Ok(mut state) = self.state.lock() else { return };
+        match *state {
+            Some((phase, done)) if phase == p.phase => {
+                // Reports from several threads may arrive out of order: only move forward.
+                if p.done > done {
+                    self.progress.advance((p.done - done) as u64);
+                    *state = Some((phase, p.done));
+                }
+            }
+            Some(_) | None => {
+                if state.is_some() {
+                    self.progress.end();
+                }
+                let name = match p.phase {
+                    vis::VisPhase::Base => "vis base",
+                    vis::VisPhase::Flow => "vis flow",
+                };
+                self.progress.begin(name, p.total as u64);
+                self.progress.advance(p.done as u64);
+                *state = Some((p.phase, p.done));
+            }
+        }
+    }
 }
 
 /// Compile `source`.
@@ -308,7 +366,11 @@ pub(crate) struct Prepared {
     pub fill: bool,
 }
 
-fn compile_here(source: &Source, opts: &CompileOptions, progress: &dyn Progress) -> Result<Compiled, CompileError> {
+fn compile_here(
+    source: &Source,
+    opts: &CompileOptions,
+    progress: &dyn Progress,
+) -> Result<Compiled, CompileError> {
     let mut clock = Clock::new();
     let (file, mut prep) = match source {
         Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress)?),
@@ -320,7 +382,8 @@ fn compile_here(source: &Source, opts: &CompileOptions, progress: &dyn Progress)
     let (tree, bounds) = match prep.tree.take() {
         Some(t) => t,
         None => {
-            let world = Aabb::from_points(prep.structural.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
+            let world =
+                Aabb::from_points(prep.structural.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
             if world.is_empty() {
                 return Err(CompileError::EmptyWorld { file: file.to_string() });
             }
@@ -372,9 +435,9 @@ fn compile_here(source: &Source, opts: &CompileOptions, progress: &dyn Progress)
         leak = Some(report);
     }
     if fill.no_seed && prep.fill {
-        prep.stats.warnings.push(
-            "no entity with an origin lies in open space: only the outside was filled".to_string(),
-        );
+        prep.stats
+            .warnings
+            .push("no entity with an origin lies in open space: only the outside was filled".to_string());
     }
     clock.lap("outside", progress);
 
@@ -401,50 +464,27 @@ fn compile_here(source: &Source, opts: &CompileOptions, progress: &dyn Progress)
     stats.portals = level.portals.len();
     stats.faces = level.faces.len();
     stats.filled_leaves = fill.filled;
-    stats.phases = clock.phases;
-    Ok(Compiled { level, prt: out.prt, stats, leak })
-}
-
-#[cfg(test)]
-mod scratch_real {
-    #[test]
-    fn scratch() {
-        let list = std::env::var("SCRATCH_MAPS").unwrap_or_default();
-        for path in list.split_whitespace() {
-            let text = std::fs::read_to_string(path).expect("read");
-            let map = sightline_formats::map::parse(&text, path).expect("parse");
-            let t = std::time::Instant::now();
-            let allow = std::env::var("SCRATCH_ALLOW").is_ok();
-            if let Ok(b) = std::env::var("SCRATCH_BOX") {
-                let v: Vec<f64> = b.split_whitespace().map(|t| t.parse().unwrap()).collect();
-                let bx = sightline_formats::Aabb::new(glam::DVec3::new(v[0], v[1], v[2]), glam::DVec3::new(v[3], v[4], v[5]));
-                let mut planes = sightline_formats::PlaneSet::new();
-                for (ei, e) in map.entities.iter().enumerate() { for (bi, b) in e.brushes.iter().enumerate() {
-                    let specs: Vec<_> = b.sides.iter().map(|s| crate::brush::SideSpec { plane: planes.insert(s.plane) as u32, hint: false }).collect();
-                    match crate::brush::Brush::from_planes(&planes, &specs, sightline_formats::Contents::Solid) {
-                        Ok((br, _)) => if br.bounds.intersects(&bx) { eprintln!("ent {ei} {} brush {bi} line {} {:?} {:?} tex {}", e.classname(), b.line, br.bounds.mins, br.bounds.maxs, b.sides[0].texture); },
-                        Err(err) => eprintln!("ent {ei} brush {bi} line {} {err:?}", b.line),
-                    }
-                }}
-            }
-            let r = super::compile(&super::Source::Map { map, file: path.into() }, &super::CompileOptions { allow_leak: allow, ..Default::default() }, &super::NoProgress);
-            if let Ok(c) = &r && let Some(leak) = &c.leak {
-                let l = &c.level;
-                let mut last = usize::MAX;
-                for p in &leak.path {
-                    let mut n = l.models[0].head_node;
-                    while n >= 0 { let nd = &l.nodes[n as usize]; let pl = &l.planes[nd.plane as usize];
-                        let d = pl.normal[0] as f64 * p.x + pl.normal[1] as f64 * p.y + pl.normal[2] as f64 * p.z - pl.dist as f64;
-                        n = if d >= 0.0 { nd.children[0] } else { nd.children[1] }; }
-                    let leaf = (-(n + 1)) as usize;
-                    if leaf != last { last = leaf; let lf = &l.leaves[leaf]; eprintln!("  {p} leaf {leaf} {:?} {:?} {:?} faces {}", lf.contents, lf.mins, lf.maxs, lf.num_faces); }
-                }
-            }
-            match r {
-                Ok(c) => eprintln!("{path}: {:.2}s {:?}", t.elapsed().as_secs_f64(), c.stats),
-                Err(super::CompileError::Leak(r)) => { eprintln!("{path}: LEAK {r}"); for p in r.path.iter().step_by(4) { eprintln!("  {p}"); } }
-                Err(e) => eprintln!("{path}: {:.2}s ERROR {e}", t.elapsed().as_secs_f64()),
-            }
+    let mut level = level;
+    let mut vis_stats = None;
+    if let (Some(vis_opts), None) = (&opts.vis, &leak) {
+        let bridge = VisProgressBridge { progress, state: std::sync::Mutex::new(None) };
+        let mut vis_opts = vis_opts.clone();
+        if let Some(t) = opts.threads {
+            vis_opts.threads = t.max(1);
         }
+        let result = vis::run(&out.prt, &vis_opts, &|p| bridge.report(p))
+            .map_err(|e| CompileError::Vis(e.to_string()))?;
+        if result.num_clusters() != level.num_clusters as usize {
+            return Err(CompileError::Vis(format!(
+                "vis returned {} clusters for {}",
+                result.num_clusters(),
+                level.num_clusters
+            )));
+        }
+        store_pvs(&mut level, &result);
+        vis_stats = Some(result.stats.clone());
+        clock.lap("vis", progress);
     }
+    stats.phases = clock.phases;
+    Ok(Compiled { level, prt: out.prt, stats, leak, vis: vis_stats })
 }

@@ -109,12 +109,13 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                         what: format!("a point of entity {ei} (`{}`) brush {bi}", e.classname()),
                     });
                 }
-                specs.push(SideSpec { plane: planes.insert(s.plane) as u32, hint: is_hint_texture(&s.texture) });
+                specs.push(SideSpec {
+                    plane: planes.insert(s.plane) as u32,
+                    hint: is_hint_texture(&s.texture),
+                });
             }
             let (brush, side_map) = Brush::from_planes(&planes, &specs, contents).map_err(|p| match p {
-                BrushProblem::AllDegenerate => {
-                    bad("every side is degenerate: the planes enclose no volume")
-                }
+                BrushProblem::AllDegenerate => bad("every side is degenerate: the planes enclose no volume"),
                 BrushProblem::Unbounded => bad(&format!(
                     "the planes do not close the brush, or it reaches beyond ±{WORLD_LIMIT} units"
                 )),
@@ -173,13 +174,24 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         }
     }
     let world_faces = clip_faces(&planes, &world);
+    // `structural[i]` and `world[i]` are the same brush.
+    for f in &world_faces {
+        if let Some(b) = structural.get_mut(f.brush as usize) {
+            for s in &mut b.sides {
+                if s.plane == f.plane {
+                    s.visible = true;
+                }
+            }
+        }
+    }
     stats.submodels = submodels.len();
     let submodels: Vec<(Vec<Brush>, Vec<crate::csg::CsgFace>)> = submodels
         .into_iter()
         .map(|list| {
             let faces = clip_faces(&planes, &list);
             // Hint brushes make no sense in a submodel; empty brushes would only add splits.
-            let brushes = list.into_iter().map(|c| c.brush).filter(|b| b.contents != Contents::Empty).collect();
+            let brushes =
+                list.into_iter().map(|c| c.brush).filter(|b| b.contents != Contents::Empty).collect();
             (brushes, faces)
         })
         .collect();

@@ -128,7 +128,13 @@ fn choose(planes: &PlaneSet, polys: &[Poly]) -> u32 {
     best.2
 }
 
-fn build_r(planes: &PlaneSet, polys: Vec<Poly>, volume: Brush, empty_side: Contents, out: &mut Vec<TreeNode>) -> u32 {
+fn build_r(
+    planes: &PlaneSet,
+    polys: Vec<Poly>,
+    volume: Brush,
+    empty_side: Contents,
+    out: &mut Vec<TreeNode>,
+) -> u32 {
     let index = out.len() as u32;
     let bounds = volume.bounds;
     if polys.is_empty() {

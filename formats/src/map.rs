@@ -3,10 +3,19 @@
 //! A side's plane comes from its three points as `normalize((p0 - p1) × (p2 - p1))` and faces out
 //! of the brush (see [`crate::geom`]); the brush is the intersection of the half-spaces behind its
 //! planes.
+//!
+//! [`parse`] reads the text with Quake's tokenizing rules (see `lexer`), decides each side's syntax
+//! on its own, and rejects anything a compiler could not use, with `file:line:col` and the entity,
+//! brush and side (0-based, file order) in the [`MapError`]. Parsing never panics and allocates only
+//! what the text justifies (every entity, brush and side consumes tokens of the text).
 
 use glam::DVec3;
 
-use crate::geom::{Aabb, ON_EPSILON, Plane, Winding};
+mod lexer;
+
+use lexer::{Lexer, Token, Unterminated};
+
+use crate::geom::{Aabb, ON_EPSILON, Plane, WORLD_LIMIT, Winding};
 
 /// Which brush-side syntax the file uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -145,12 +154,6 @@ impl MapFile {
         self.brushes().fold(Aabb::EMPTY, |b, brush| b.union(&brush.bounds()))
     }
 }
-
-mod lexer;
-
-use lexer::{Lexer, Token, Unterminated};
-
-use crate::geom::WORLD_LIMIT;
 
 /// Where in the brush structure an error happened: entity index, brush index within the entity and,
 /// when known, the side index within the brush (all 0-based, in file order).

@@ -68,10 +68,12 @@ pub enum ObjError {
         token: String,
     },
     /// `tobj` rejected the text.
-    #[error("{path}: {source}")]
+    #[error("{path}:{line}: {source}")]
     Parse {
         /// The file.
         path: String,
+        /// 1-based line: the first line such that the text up to it fails to load.
+        line: usize,
         /// The `tobj` error.
         source: tobj::LoadError,
     },
@@ -121,15 +123,48 @@ pub fn load(path: &Path) -> Result<TriMesh, ObjError> {
 /// Load `.obj` text from memory; `name` is used in errors.
 pub fn load_from_bytes(bytes: &[u8], name: &str) -> Result<TriMesh, ObjError> {
     check_face_indices(bytes, name)?;
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let mut reader = std::io::Cursor::new(bytes);
-    let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
-        .map_err(|source| ObjError::Parse { path: name.to_string(), source })?;
+    let models = match run_tobj(bytes) {
+        Ok(models) => models,
+        Err(source) => {
+            return Err(ObjError::Parse { path: name.to_string(), line: failing_line(bytes), source });
+        }
+    };
     let mut mesh = TriMesh::default();
     for model in &models {
         append(&mut mesh, model, name)?;
     }
     Ok(mesh)
+}
+
+fn run_tobj(bytes: &[u8]) -> Result<Vec<tobj::Model>, tobj::LoadError> {
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let mut reader = std::io::Cursor::new(bytes);
+    tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default())).map(|(models, _)| models)
+}
+
+/// `tobj` does not say where it failed: find the first line `k` such that lines `1..=k` fail to
+/// load, by bisection (only on the error path; `log2(lines)` more loads).
+fn failing_line(bytes: &[u8]) -> usize {
+    let ends: Vec<usize> = bytes
+        .iter()
+        .enumerate()
+        .filter(|&(_, &b)| b == b'\n')
+        .map(|(i, _)| i + 1)
+        .chain([bytes.len()])
+        .collect();
+    let fails =
+        |k: usize| ends.get(k - 1).is_none_or(|&end| run_tobj(bytes.get(..end).unwrap_or(bytes)).is_err());
+    // Invariant: lines 1..=hi fail; lines 1..=lo - 1 load (or lo == 1).
+    let (mut lo, mut hi) = (1, ends.len());
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if fails(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    hi
 }
 
 /// Reject face indices larger in magnitude than the number of lines: such a file cannot define
@@ -188,7 +223,7 @@ fn append(mesh: &mut TriMesh, model: &tobj::Model, name: &str) -> Result<(), Obj
         mesh.positions.push(p);
     }
     let bad = |triangle| ObjError::BadIndex { path: name.to_string(), object: model.name.clone(), triangle };
-    if m.indices.len() % 3 != 0 {
+    if !m.indices.len().is_multiple_of(3) {
         return Err(bad(m.indices.len() / 3));
     }
     mesh.triangles.reserve(m.indices.len() / 3);
@@ -226,7 +261,7 @@ mod tests {
     #[test]
     fn out_of_range_indices_are_rejected() {
         let e = load_from_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "a.obj").unwrap_err();
-        assert!(e.to_string().starts_with("a.obj: "), "{e}");
+        assert!(e.to_string().starts_with("a.obj:4: face vertex index out of bounds"), "{e}");
         let e =
             load_from_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n", "a.obj").unwrap_err();
         assert!(matches!(e, ObjError::FaceIndex { line: 4, col: 7, .. }), "{e:?}");
@@ -240,8 +275,9 @@ mod tests {
             let e = load_from_bytes(text.as_bytes(), "b.obj").unwrap_err();
             assert!(matches!(e, ObjError::BadVertex { vertex: 0, .. }), "{e:?}");
         }
-        let e = load_from_bytes(b"v 0 0 x\nf 1 1 1\n", "b.obj").unwrap_err();
-        assert!(matches!(e, ObjError::Parse { .. }), "{e:?}");
+        let e = load_from_bytes(b"v 0 0 0\nv 1 0 0\n# c\nv 0 0 x\nf 1 2 3\n", "b.obj").unwrap_err();
+        assert!(matches!(e, ObjError::Parse { line: 4, .. }), "{e:?}");
+        assert!(e.to_string().starts_with("b.obj:4: "), "{e}");
     }
 
     #[test]

@@ -11,7 +11,9 @@
 //! - Triangles are two-sided. `u`, `v` are barycentric coordinates: the hit point is
 //!   `v0 + u * (v1 - v0) + v * (v2 - v0)`.
 //! - `triangle` in a [`Hit`] is the index into the slice given to [`Bvh::build`].
-//! - The triangle test is Möller–Trumbore in `f32`; degenerate (zero-area) triangles never hit.
+//! - The triangle test is watertight (Woop et al. 2013) in `f32`: a ray through a shared edge or
+//!   corner of a closed mesh cannot slip between its triangles. Degenerate (zero-area) triangles
+//!   never hit.
 //! - Results are deterministic: among hits at exactly equal `t` the one found first in the fixed
 //!   traversal order wins.
 
@@ -49,12 +51,42 @@ struct Node {
     count: u32,
 }
 
-/// A triangle prepared for Möller–Trumbore: a corner and its two edges.
+/// A triangle's corners, exactly as given (watertightness needs shared corners bit-identical).
 #[derive(Debug, Clone, Copy)]
 struct Prepared {
     v0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
+    v1: Vec3,
+    v2: Vec3,
+}
+
+/// A ray prepared for the watertight test: the axis permutation and shear that map `dir` to +z.
+#[derive(Debug, Clone, Copy)]
+struct Ray {
+    origin: Vec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl Ray {
+    fn new(origin: Vec3, dir: Vec3) -> Ray {
+        let a = dir.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Ray { origin, kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+    }
 }
 
 /// A BVH over a triangle soup.
@@ -144,7 +176,7 @@ impl Bvh {
             .iter()
             .map(|&id| {
                 let [a, b, c] = triangles[id as usize];
-                Prepared { v0: a, e1: b - a, e2: c - a }
+                Prepared { v0: a, v1: b, v2: c }
             })
             .collect();
         Bvh { nodes, tris, ids }
@@ -180,6 +212,7 @@ impl Bvh {
             return None;
         }
         let inv = dir.recip();
+        let ray = Ray::new(origin, dir);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
         let mut stack = [0u32; STACK];
@@ -193,7 +226,7 @@ impl Bvh {
             if node.count > 0 {
                 let first = node.first as usize;
                 for k in first..first + node.count as usize {
-                    if let Some((t, u, v)) = tri_hit(&self.tris[k], origin, dir, t_best) {
+                    if let Some((t, u, v)) = tri_hit(&self.tris[k], &ray, t_best) {
                         t_best = t;
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
                         if ANY {
@@ -329,31 +362,52 @@ fn box_hit(node: &Node, origin: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
     let t0 = (node.min - origin) * inv;
     let t1 = (node.max - origin) * inv;
     let tnear = t0.min(t1).max_element().max(0.0);
-    let tfar = t0.max(t1).min_element().min(t_max);
+    // Widened by a few ulps so that boxes never cull a hit the watertight test would report.
+    let tfar = t0.max(t1).min_element().min(t_max) * (1.0 + 4.0 * f32::EPSILON);
     (tnear <= tfar).then_some(tnear)
 }
 
-/// Möller–Trumbore: `(t, u, v)` when the ray hits the triangle with `0 < t < t_max`.
+/// Watertight ray/triangle test (Woop, Benthin and Wald 2013): `(t, u, v)` when the ray hits the
+/// triangle with `0 < t < t_max`. Rays through a shared edge or corner hit at least one of the
+/// triangles sharing it, so nothing leaks through the seams of a closed mesh; edge functions that
+/// come out exactly zero are recomputed in `f64`.
 #[inline(always)]
-fn tri_hit(tri: &Prepared, origin: Vec3, dir: Vec3, t_max: f32) -> Option<(f32, f32, f32)> {
-    let p = dir.cross(tri.e2);
-    let det = tri.e1.dot(p);
+fn tri_hit(tri: &Prepared, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+    let a = tri.v0 - ray.origin;
+    let b = tri.v1 - ray.origin;
+    let c = tri.v2 - ray.origin;
+    let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+    let ax = a[kx] - ray.sx * a[kz];
+    let ay = a[ky] - ray.sy * a[kz];
+    let bx = b[kx] - ray.sx * b[kz];
+    let by = b[ky] - ray.sy * b[kz];
+    let cx = c[kx] - ray.sx * c[kz];
+    let cy = c[ky] - ray.sy * c[kz];
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let d = |p: f32, q: f32, r: f32, s: f32| {
+            (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
+        };
+        u = d(cx, by, cy, bx);
+        v = d(ax, cy, ay, cx);
+        w = d(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let inv_det = 1.0 / det;
-    let s = origin - tri.v0;
-    let u = s.dot(p) * inv_det;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(tri.e1);
-    let v = dir.dot(q) * inv_det;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = tri.e2.dot(q) * inv_det;
-    (t > 0.0 && t < t_max).then_some((t, u, v))
+    let az = ray.sz * a[kz];
+    let bz = ray.sz * b[kz];
+    let cz = ray.sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    (t > 0.0 && t < t_max).then_some((t, v * inv, w * inv))
 }
 
 /// Brute-force closest hit over all `triangles`, with the same triangle test as the tree (a
@@ -361,12 +415,13 @@ fn tri_hit(tri: &Prepared, origin: Vec3, dir: Vec3, t_max: f32) -> Option<(f32, 
 pub fn intersect_brute(triangles: &[[Vec3; 3]], origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
     let mut best: Option<Hit> = None;
     let mut t_best = t_max;
+    let ray = Ray::new(origin, dir);
     for (i, &[a, b, c]) in triangles.iter().enumerate() {
         if !(a.is_finite() && b.is_finite() && c.is_finite()) {
             continue;
         }
-        let tri = Prepared { v0: a, e1: b - a, e2: c - a };
-        if let Some((t, u, v)) = tri_hit(&tri, origin, dir, t_best) {
+        let tri = Prepared { v0: a, v1: b, v2: c };
+        if let Some((t, u, v)) = tri_hit(&tri, &ray, t_best) {
             t_best = t;
             best = Some(Hit { t, triangle: i as u32, u, v });
         }
@@ -409,6 +464,30 @@ mod tests {
         let bvh = Bvh::build(&[[nan, Vec3::X, Vec3::Y], [Vec3::ZERO, Vec3::X, Vec3::X]]);
         assert_eq!(bvh.len(), 1);
         assert!(bvh.intersect(Vec3::new(0.5, -1.0, 0.0), Vec3::Y, 10.0).is_none());
+    }
+
+    proptest! {
+        #[test]
+        fn rays_through_a_shared_edge_never_leak(
+            k in 0.0f32..1.0,
+            (ox, oy, oz) in (-30.0f32..30.0, -30.0f32..30.0, 1.0f32..30.0),
+        ) {
+            // A flat fan of triangles sharing edges; aim at points on the seams.
+            let c = Vec3::new(0.3, -0.2, 0.0);
+            let ring: Vec<Vec3> = (0..7)
+                .map(|i| {
+                    let a = i as f32 * std::f32::consts::TAU / 7.0;
+                    Vec3::new(a.cos() * 3.0, a.sin() * 3.0, 0.0)
+                })
+                .collect();
+            let tris: Vec<[Vec3; 3]> = (0..7).map(|i| [c, ring[i], ring[(i + 1) % 7]]).collect();
+            let bvh = Bvh::build(&tris);
+            let o = Vec3::new(ox, oy, oz);
+            for r in &ring {
+                let target = c + (*r - c) * k;
+                prop_assert!(bvh.intersect(o, target - o, 10.0).is_some(), "leak at {target}");
+            }
+        }
     }
 
     fn tri_strategy() -> impl Strategy<Value = [Vec3; 3]> {

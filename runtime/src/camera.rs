@@ -71,11 +71,19 @@ pub enum ClipDepth {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frustum {
     /// Inward unit normals.
-    pub normals: [Vec3A; 6],
+    pub(crate) normals: [Vec3A; 6],
     /// Plane distances (`normal · p = dist` on the plane).
-    pub dists: [f32; 6],
-    /// `normals[i].abs()`, kept for the box test.
-    pub(crate) abs_normals: [Vec3A; 6],
+    pub(crate) dists: [f32; 6],
+    /// The planes packed for the box test (normal, |normal|, dist), padded to 8 so that an index
+    /// `& 7` needs no bounds check; entries 6 and 7 are never selected by a mask.
+    packed: [PackedPlane; 8],
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct PackedPlane {
+    normal: Vec3A,
+    abs_normal: Vec3A,
+    dist: f32,
 }
 
 /// Result of a box against a frustum plane set.
@@ -92,8 +100,11 @@ impl Frustum {
     pub const ALL: u8 = 0x3f;
 
     fn from_planes(planes: [(Vec3A, f32); 6]) -> Self {
-        let normals = planes.map(|p| p.0);
-        Self { normals, dists: planes.map(|p| p.1), abs_normals: normals.map(Vec3A::abs) }
+        let mut packed = [PackedPlane::default(); 8];
+        for (slot, &(normal, dist)) in packed.iter_mut().zip(&planes) {
+            *slot = PackedPlane { normal, abs_normal: normal.abs(), dist };
+        }
+        Self { normals: planes.map(|p| p.0), dists: planes.map(|p| p.1), packed }
     }
 
     /// The frustum of a camera.
@@ -144,17 +155,15 @@ impl Frustum {
     /// (the centre/extent form of the p/n-vertex test).
     #[inline]
     pub fn test_box(&self, center: Vec3A, extent: Vec3A, mask: u8) -> BoxSide {
+        let mask = mask & Self::ALL;
         let mut out = mask;
         let mut bits = mask;
         while bits != 0 {
-            let i = bits.trailing_zeros() as usize;
+            let p = &self.packed[bits.trailing_zeros() as usize & 7];
+            let i = bits.trailing_zeros();
             bits &= bits - 1;
-            let (Some(n), Some(d), Some(a)) = (self.normals.get(i), self.dists.get(i), self.abs_normals.get(i))
-            else {
-                continue;
-            };
-            let dist = n.dot(center) - d;
-            let radius = a.dot(extent);
+            let dist = p.normal.dot(center) - p.dist;
+            let radius = p.abs_normal.dot(extent);
             if dist + radius < 0.0 {
                 return BoxSide::Outside;
             }
@@ -163,6 +172,11 @@ impl Frustum {
             }
         }
         BoxSide::Inside(out)
+    }
+
+    /// The six planes as (inward unit normal, distance): left, right, bottom, top, near, far.
+    pub fn planes(&self) -> [(Vec3A, f32); 6] {
+        std::array::from_fn(|i| (self.normals[i], self.dists[i]))
     }
 
     /// True when `p` is inside every plane.

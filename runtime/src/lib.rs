@@ -14,11 +14,16 @@
 //! afterwards no query can panic. It is immutable and `Send + Sync`; per-caller state lives in a
 //! [`Scratch`], so culling allocates nothing per frame.
 
+#![deny(unsafe_code)]
+
 pub mod backend;
 pub mod bvh;
 pub mod camera;
 pub mod check;
 pub mod error;
+#[cfg(feature = "ffi")]
+#[allow(unsafe_code)]
+pub mod ffi;
 pub mod load;
 pub mod locate;
 pub mod poses;

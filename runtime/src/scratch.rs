@@ -67,13 +67,6 @@ pub struct Scratch {
     pub(crate) stack: Vec<(i32, u8)>,
     // Portal search.
     pub(crate) on_path: Vec<bool>,
-    /// `(mark generation, times entered)` per leaf.
-    pub(crate) entries: Vec<(u32, u32)>,
-    /// `(mark generation, first entry)` per leaf: the polygons a leaf was entered through.
-    pub(crate) entry_head: Vec<(u32, u32)>,
-    /// `(start, len, next)` into `entry_polys`; `next == u32::MAX` ends a leaf's list.
-    pub(crate) entry_list: Vec<(u32, u32, u32)>,
-    pub(crate) entry_polys: Vec<Vec3A>,
     pub(crate) planes: Vec<(Vec3A, f32)>,
     pub(crate) poly_a: Vec<Vec3A>,
     pub(crate) poly_b: Vec<Vec3A>,
@@ -106,10 +99,6 @@ impl Scratch {
         self.face_mark.resize(world.num_faces(), 0);
         self.on_path.clear();
         self.on_path.resize(world.num_leaves(), false);
-        self.entries.clear();
-        self.entries.resize(world.num_leaves(), (0, 0));
-        self.entry_head.clear();
-        self.entry_head.resize(world.num_leaves(), (0, u32::MAX));
         self.row.reset(world.num_clusters() as usize);
         self.stack.clear();
         self.stack.reserve(2 * world.depth() + 2);
@@ -124,8 +113,6 @@ impl Scratch {
         if self.mark_gen == 0 {
             self.leaf_mark.fill(0);
             self.node_mark.fill(0);
-            self.entries.fill((0, 0));
-            self.entry_head.fill((0, u32::MAX));
             self.mark_gen = 1;
         }
         self.pvs_key = None;
@@ -147,19 +134,18 @@ impl Scratch {
     #[inline]
     pub(crate) fn mark_leaf(&mut self, world: &World, leaf: u32) -> bool {
         let gen_ = self.mark_gen;
-        let Some(l) = world.leaves.get(leaf as usize) else { return false };
         let Some(m) = self.leaf_mark.get_mut(leaf as usize) else { return false };
         if *m == gen_ {
             return false;
         }
         *m = gen_;
-        let mut p = l.parent;
-        while let (Some(mark), Some(node)) = (self.node_mark.get_mut(p as usize), world.nodes.get(p as usize)) {
+        let mut p = world.leaf_parent.get(leaf as usize).copied().unwrap_or(u32::MAX);
+        while let Some(mark) = self.node_mark.get_mut(p as usize) {
             if *mark == gen_ {
                 break;
             }
             *mark = gen_;
-            p = node.parent;
+            p = world.node_parent.get(p as usize).copied().unwrap_or(u32::MAX);
         }
         true
     }

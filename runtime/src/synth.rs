@@ -10,7 +10,7 @@ use sightline_formats::rle;
 /// that touches rock or the grid's border, and one portal per open neighbour. With `vis`, every
 /// cluster's PVS row holds every cluster (a trivially conservative PVS).
 pub fn grid_level(dims: [usize; 3], cell: f32, vis: bool, solid: impl Fn(usize, usize, usize) -> bool) -> Level {
-    let mut level = Level::default();
+    let mut level = Level { textures: vec!["wall".to_string()], ..Level::default() };
     let index = |x: usize, y: usize, z: usize| (z * dims[1] + y) * dims[0] + x;
     let count = dims[0] * dims[1] * dims[2];
     let is_solid: Vec<bool> = (0..count).map(|i| solid(i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]))).collect();

@@ -11,6 +11,16 @@ use crate::camera::{BoxSide, Frustum, View};
 use crate::scratch::{Scratch, Visible};
 use crate::world::World;
 
+/// True when `child` (node or leaf code) carries the mark `mark`.
+#[inline]
+fn is_marked(scratch: &Scratch, child: i32, mark: u32) -> bool {
+    if child >= 0 {
+        scratch.node_mark.get(child as usize) == Some(&mark)
+    } else {
+        scratch.leaf_mark.get((!child) as usize) == Some(&mark)
+    }
+}
+
 /// Output every marked leaf (the marks of the last [`crate::backend::pvs::Pvs::mark`] or backend
 /// call on this scratch) that survives the frustum, front to back,
 /// with its faces (each face once per frame).
@@ -24,13 +34,13 @@ pub fn walk_marked(world: &World, view: &View, scratch: &mut Scratch, out: &mut 
     let mut tests = 0u32;
     scratch.stack.clear();
     scratch.stack.push((world.root, Frustum::ALL));
+    if !is_marked(scratch, world.root, mark) {
+        scratch.stack.clear();
+    }
     while let Some((child, mask)) = scratch.stack.pop() {
         visited += 1;
         if child >= 0 {
             let Some(node) = world.nodes.get(child as usize) else { continue };
-            if scratch.node_mark.get(child as usize) != Some(&mark) {
-                continue;
-            }
             let mut mask = mask;
             if mask != 0 {
                 tests += 1;
@@ -39,17 +49,19 @@ pub fn walk_marked(world: &World, view: &View, scratch: &mut Scratch, out: &mut 
                     BoxSide::Inside(m) => mask = m,
                 }
             }
+            // Near child first: push it last. Unmarked children are never pushed.
             let back_first = node.normal.dot(eye) - node.dist < 0.0;
             let [front, back] = node.children;
             let (near, far) = if back_first { (back, front) } else { (front, back) };
-            scratch.stack.push((far, mask));
-            scratch.stack.push((near, mask));
+            if is_marked(scratch, far, mark) {
+                scratch.stack.push((far, mask));
+            }
+            if is_marked(scratch, near, mark) {
+                scratch.stack.push((near, mask));
+            }
         } else {
             let l = (!child) as usize;
             let Some(leaf) = world.leaves.get(l) else { continue };
-            if scratch.leaf_mark.get(l) != Some(&mark) {
-                continue;
-            }
             if mask != 0 {
                 tests += 1;
                 if fr.test_box(leaf.center, leaf.extent, mask) == BoxSide::Outside {

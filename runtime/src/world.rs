@@ -118,6 +118,9 @@ pub struct World {
     pub(crate) cluster_leaves: Vec<u32>,
     /// Non-solid leaves of the world tree (what "everything visible" means).
     pub(crate) open_leaves: Vec<u32>,
+    /// Compact copies of the parent links, for marking up the tree without touching whole nodes.
+    pub(crate) leaf_parent: Vec<u32>,
+    pub(crate) node_parent: Vec<u32>,
 }
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
@@ -249,7 +252,11 @@ impl World {
         }
         cluster_leaves.truncate(cluster_leaf_start[clusters] as usize);
 
+        let leaf_parent = leaves.iter().map(|l| l.parent).collect();
+        let node_parent = nodes.iter().map(|n| n.parent).collect();
         Ok(Self {
+            leaf_parent,
+            node_parent,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             root: root_child,
             depth,

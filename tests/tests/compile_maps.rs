@@ -10,28 +10,31 @@ fn compile_file(path: &std::path::Path) -> Compiled {
     let text = std::fs::read_to_string(path).expect("readable map");
     let name = path.display().to_string();
     let map = sightline_formats::map::parse(&text, &name).expect("map parses");
-    compile(&Source::Map { map, file: name }, &CompileOptions::default(), &NoProgress).expect("compiles sealed")
+    compile(&Source::Map { map, file: name }, &CompileOptions::default(), &NoProgress)
+        .expect("compiles sealed")
 }
 
 fn v(a: [f32; 3]) -> DVec3 {
     DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
-/// The leaf holding `p` (points on a plane go to the front).
+/// The leaf holding `p`; points on a plane go to the back, as the compiler places entities.
 fn leaf_at(level: &Level, p: DVec3) -> usize {
     let mut c = level.models[0].head_node;
     while c >= 0 {
         let n = &level.nodes[c as usize];
         let pl = &level.planes[n.plane as usize];
         let d = v(pl.normal).dot(p) - pl.dist as f64;
-        c = if d >= 0.0 { n.children[0] } else { n.children[1] };
+        c = if d > 0.0 { n.children[0] } else { n.children[1] };
     }
     (-(c + 1)) as usize
 }
 
-/// Portal invariants: on the plane, inside both leaves' bounds, joining non-solid leaves, and the
-/// leaves reachable from the player start are exactly the non-solid leaves.
-fn check_portal_graph(level: &Level, start: DVec3) {
+/// Portal invariants: on the plane, inside both leaves' bounds, joining non-solid leaves; the
+/// player start is in a kept leaf; and the leaves reachable through portals from the entities
+/// (the player start and, in maps with areas joined only by teleporters, the entities there) are
+/// exactly the non-solid leaves the outside fill kept.
+fn check_portal_graph(level: &Level, start: DVec3, origins: &[DVec3]) {
     const EPS: f64 = 0.05;
     let mut adjacency = vec![Vec::new(); level.leaves.len()];
     for (i, p) in level.portals.iter().enumerate() {
@@ -58,8 +61,15 @@ fn check_portal_graph(level: &Level, start: DVec3) {
     let first = leaf_at(level, start);
     assert_ne!(level.leaves[first].contents, Contents::Solid, "player start in solid");
     let mut seen = vec![false; level.leaves.len()];
-    seen[first] = true;
-    let mut queue = VecDeque::from([first]);
+    let mut queue = VecDeque::new();
+    for &o in origins {
+        let l = leaf_at(level, o);
+        if level.leaves[l].contents != Contents::Solid && !seen[l] {
+            seen[l] = true;
+            queue.push_back(l);
+        }
+    }
+    assert!(seen[first]);
     while let Some(l) = queue.pop_front() {
         for &n in &adjacency[l] {
             if !seen[n] {
@@ -68,13 +78,31 @@ fn check_portal_graph(level: &Level, start: DVec3) {
             }
         }
     }
-    for (i, leaf) in level.leaves.iter().take(level.leaves.len()).enumerate() {
-        if leaf.cluster >= 0 {
-            assert!(seen[i], "kept leaf {i} is not reachable from the player start");
-        } else {
-            assert!(!seen[i] || leaf.contents != Contents::Solid);
+    let world_leaves = level.leaves.len() - submodel_leaves(level);
+    for (i, leaf) in level.leaves.iter().take(world_leaves).enumerate() {
+        assert_eq!(
+            seen[i],
+            leaf.contents != Contents::Solid,
+            "leaf {i} ({:?}) kept vs reached",
+            leaf.contents
+        );
+    }
+}
+
+/// Leaves of submodel trees come after the world's.
+fn submodel_leaves(level: &Level) -> usize {
+    let mut count = 0;
+    for m in level.models.iter().skip(1) {
+        let mut stack = vec![m.head_node];
+        while let Some(c) = stack.pop() {
+            if c < 0 {
+                count += 1;
+            } else {
+                stack.extend(level.nodes[c as usize].children);
+            }
         }
     }
+    count
 }
 
 fn player_start(level: &Level) -> DVec3 {
@@ -84,8 +112,13 @@ fn player_start(level: &Level) -> DVec3 {
     let block = &text[block_start..];
     let block = &block[..block.find('}').expect("entity end")];
     let line = block.lines().find(|l| l.starts_with("\"origin\"")).expect("origin");
-    let nums: Vec<f64> =
-        line.split('"').nth(3).expect("value").split_whitespace().map(|t| t.parse().expect("number")).collect();
+    let nums: Vec<f64> = line
+        .split('"')
+        .nth(3)
+        .expect("value")
+        .split_whitespace()
+        .map(|t| t.parse().expect("number"))
+        .collect();
     DVec3::new(nums[0], nums[1], nums[2])
 }
 
@@ -105,11 +138,20 @@ fn representative_real_maps_compile_sealed_with_a_sound_portal_graph() {
             s.brushes, s.faces, s.nodes, s.leaves, s.vis_leaves, s.portals
         );
         assert!(s.vis_leaves > 0 && s.portals > 0);
-        assert_eq!(out.prt.portals.len(), out.level.portals.len());
+        if out.prt.format == sightline_formats::prt::PrtFormat::Prt1 {
+            assert_eq!(out.prt.portals.len(), out.level.portals.len());
+        } else {
+            // PRT2 keeps only the portals between clusters.
+            assert!(out.prt.portals.len() < out.level.portals.len());
+            assert_eq!(out.prt.leaf_clusters.len() as u32, out.prt.num_leaves);
+        }
         for p in &out.prt.portals {
             assert!(p.leaves.iter().all(|&l| l < out.prt.num_leaves));
             assert!(p.winding.is_valid(0.05), "non-convex or non-planar portal winding");
         }
-        check_portal_graph(&out.level, player_start(&out.level));
+        let text = std::fs::read_to_string(&path).expect("map");
+        let map = sightline_formats::map::parse(&text, name).expect("parses");
+        let origins: Vec<DVec3> = map.entities.iter().skip(1).filter_map(|e| e.origin()).collect();
+        check_portal_graph(&out.level, player_start(&out.level), &origins);
     }
 }

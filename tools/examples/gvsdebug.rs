@@ -19,6 +19,7 @@ fn main() {
     let mut missed: HashMap<u32, u32> = HashMap::new();
     for vw in &views {
         let ids = error::id_buffer(&bvh, vw, 1000, 60.0);
+        println!("view err {}", error::error_pixels(&ids, &bits));
         for &t in &ids { if t != u32::MAX && bits[t as usize/64] & (1<<(t%64)) == 0 { *missed.entry(t).or_default() += 1; } }
     }
     let mut m: Vec<_> = missed.into_iter().collect();

@@ -39,6 +39,8 @@ struct Frame {
     /// Separators of (`source`, `pass`): normal order then flipped order.
     seps: [Vec<Plane>; 2],
     seps_ready: bool,
+    /// Tests 3 and 4 (narrowing `source`) are still to run.
+    narrow: bool,
 }
 
 /// Per-thread flow state, reused from portal to portal (no allocation once frames exist).
@@ -46,7 +48,10 @@ struct Frame {
 pub struct Flow {
     frames: Vec<Frame>,
     tmp: Poly,
+    /// Portals leading into a cluster already known visible from the base portal.
     vis: Vec<u64>,
+    /// Clusters known visible from the base portal.
+    seen: Vec<u64>,
     words: usize,
     level: u8,
     /// Recursive calls made (portal chains visited).
@@ -55,8 +60,27 @@ pub struct Flow {
 
 impl Flow {
     /// State for rows of `words` words and separator `level` 0..=4.
-    pub fn new(words: usize, level: u8) -> Self {
-        Self { frames: Vec::new(), tmp: Poly::default(), vis: vec![0; words], words, level, chains: 0 }
+    pub fn new(words: usize, clusters: usize, level: u8) -> Self {
+        Self {
+            frames: Vec::new(),
+            tmp: Poly::default(),
+            vis: vec![0; words],
+            seen: vec![0; bits::words(clusters)],
+            words,
+            level,
+            chains: 0,
+        }
+    }
+
+    /// Cluster `c` is visible: every portal into it is covered.
+    fn see(&mut self, g: &Graph, c: u32) {
+        if bits::get(&self.seen, c as usize) {
+            return;
+        }
+        bits::set(&mut self.seen, c as usize);
+        for &q in &g.cluster_incoming[c as usize] {
+            bits::set(&mut self.vis, q as usize);
+        }
     }
 
     fn frame(&mut self, d: usize) {
@@ -69,7 +93,10 @@ impl Flow {
     /// else its `mightsee` (`words` words per portal). Writes the result into `out`.
     pub fn run(&mut self, g: &Graph, test: &[u64], base: usize, out: &mut [u64]) {
         self.vis.fill(0);
+        self.seen.fill(0);
         let p = &g.portals[base];
+        self.see(g, p.leaf);
+        self.see(g, p.owner);
         self.frame(0);
         let f = &mut self.frames[0];
         f.leaf = p.leaf;
@@ -78,9 +105,15 @@ impl Flow {
         f.pass.n = 0;
         f.might.copy_from_slice(&test[base * self.words..(base + 1) * self.words]);
         f.seps_ready = false;
+        f.narrow = false;
         let head = Head { plane: p.plane, bound: Sphere { center: p.center, radius: p.radius } };
         self.recurse(g, test, 0, &head);
-        out.copy_from_slice(&self.vis);
+        // Portals it might see that lead into a cluster it sees: a superset of the portals it
+        // sees, which is what later flows may narrow by.
+        let might = &test[base * self.words..(base + 1) * self.words];
+        for ((o, &v), &m) in out.iter_mut().zip(&self.vis).zip(might) {
+            *o = v & m;
+        }
     }
 
     fn recurse(&mut self, g: &Graph, test: &[u64], d: usize, head: &Head) {
@@ -104,9 +137,16 @@ impl Flow {
             }
             // Nothing new beyond `p`: only whether `p` itself is visible is left to decide.
             let deeper = more != 0;
-            if !deeper && bits::get(&self.vis, pi) {
+            if !deeper && bits::get(&self.seen, p.leaf as usize) {
                 continue;
             }
+            if prev.narrow {
+                prev.narrow = false;
+                if !narrow_source(self.level, lo, head, &mut self.tmp) {
+                    return;
+                }
+            }
+            let prev = &mut lo[d];
             let Some(prev_plane) = prev.plane else { continue };
             if p.plane.normal.dot(prev_plane.normal) <= -1.0 + OPPOSITE_EPSILON {
                 continue; // straight back out through the way in
@@ -128,6 +168,7 @@ impl Flow {
             next.leaf = p.leaf;
             next.plane = Some(p.plane);
             next.seps_ready = false;
+            next.narrow = false;
             if d > 0 {
                 // Target: in front of the pass portal.
                 if next.pass.clip_in(&target, &prev_plane, CLIP_EPSILON, tmp) == Clip::Gone {
@@ -136,22 +177,15 @@ impl Flow {
                 if !clip_target(self.level, prev, next, source_clip, &target, tmp) {
                     continue;
                 }
-                // Tests 3 and 4 narrow the source for the frames below; without them the target
-                // stays visible (keeping more), so they only run when the flow goes deeper.
-                if deeper
-                    && self.level > 2
-                    && !clip_to_separators(&next.pass, &prev.pass, false, &mut next.source, &head.bound, tmp)
-                {
-                    continue;
-                }
-                if deeper
-                    && self.level > 3
-                    && !clip_to_separators(&prev.pass, &next.pass, true, &mut next.source, &head.bound, tmp)
-                {
-                    continue;
+                // Tests 3 and 4 narrow the source for the frame below: deferred until that frame
+                // has a target worth testing (see `narrow_source`).
+                next.narrow = false;
+                if deeper && self.level > 2 {
+                    if !clip_to_separators(&next.pass, &prev.pass, false, &mut next.source, &head.bound, tmp) { continue; }
+                    if self.level > 3 && !clip_to_separators(&prev.pass, &next.pass, true, &mut next.source, &head.bound, tmp) { continue; }
                 }
             }
-            bits::set(&mut self.vis, pi);
+            self.see(g, p.leaf);
             if deeper {
                 self.recurse(g, test, d + 1, head);
             }
@@ -161,7 +195,14 @@ impl Flow {
 
 /// Tests 1 and 2 (by level): clip the target (`next.pass`) by the separators of the source and
 /// the pass portal, from the frame's cache when the source was not changed for this target.
-fn clip_target(level: u8, prev: &mut Frame, next: &mut Frame, source_clip: Clip, target: &Sphere, tmp: &mut Poly) -> bool {
+fn clip_target(
+    level: u8,
+    prev: &mut Frame,
+    next: &mut Frame,
+    source_clip: Clip,
+    target: &Sphere,
+    tmp: &mut Poly,
+) -> bool {
     if level == 0 {
         return true;
     }
@@ -194,4 +235,16 @@ fn clip_target(level: u8, prev: &mut Frame, next: &mut Frame, source_clip: Clip,
         return false;
     }
     level < 2 || clip_to_separators(&prev.pass, &next.source, true, &mut next.pass, target, tmp)
+}
+
+/// Tests 3 and 4 for the last frame of `frames`: clip its source by the separators of (its pass,
+/// the previous pass) and of (previous pass, its pass). Run lazily, when the frame first has a
+/// target to test; until then the portal that led to it already counts as visible, which can
+/// only keep more. Returns `false` when no source is left.
+fn narrow_source(level: u8, frames: &mut [Frame], head: &Head, tmp: &mut Poly) -> bool {
+    let [.., prev, cur] = frames else { return true };
+    if !clip_to_separators(&cur.pass, &prev.pass, false, &mut cur.source, &head.bound, tmp) {
+        return false;
+    }
+    level < 4 || clip_to_separators(&prev.pass, &cur.pass, true, &mut cur.source, &head.bound, tmp)
 }

@@ -19,6 +19,8 @@ pub struct OneWay {
     pub plane: Plane,
     /// The cluster it leads to.
     pub leaf: u32,
+    /// The cluster it is stored in.
+    pub owner: u32,
     /// Range of its points in [`Graph::points`].
     pub start: u32,
     /// Number of points.
@@ -38,6 +40,8 @@ pub struct Graph {
     pub points: Vec<DVec3>,
     /// Per cluster, the indices of the one-way portals leading out of it.
     pub cluster_portals: Vec<Vec<u32>>,
+    /// Per cluster, the indices of the one-way portals leading into it.
+    pub cluster_incoming: Vec<Vec<u32>>,
     /// Portal lines dropped (no plane, or joining a cluster to itself).
     pub dropped: usize,
 }
@@ -51,12 +55,14 @@ impl Graph {
             portals: Vec::with_capacity(prt.portals.len() * 2),
             points: Vec::new(),
             cluster_portals: vec![Vec::new(); num_clusters],
+            cluster_incoming: vec![Vec::new(); num_clusters],
             dropped: 0,
         };
         for line in &prt.portals {
             let [a, b] = line.leaves;
             let plane = line.winding.plane();
-            let (Some(plane), true) = (plane, a != b && (a as usize) < num_clusters && (b as usize) < num_clusters)
+            let (Some(plane), true) =
+                (plane, a != b && (a as usize) < num_clusters && (b as usize) < num_clusters)
             else {
                 g.dropped += 1;
                 continue;
@@ -77,6 +83,7 @@ impl Graph {
         self.portals.push(OneWay {
             plane,
             leaf,
+            owner,
             start: self.points.len() as u32,
             len: pts.len() as u32,
             center,
@@ -86,6 +93,14 @@ impl Graph {
         if let Some(list) = self.cluster_portals.get_mut(owner as usize) {
             list.push(index);
         }
+        if let Some(list) = self.cluster_incoming.get_mut(leaf as usize) {
+            list.push(index);
+        }
+    }
+
+    /// Number of clusters.
+    pub fn num_clusters(&self) -> usize {
+        self.cluster_portals.len()
     }
 
     /// The winding points of portal `i`.

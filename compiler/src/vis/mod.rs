@@ -225,7 +225,11 @@ impl VisResult {
 }
 
 /// Compute the PVS of a portal file. `progress` is called (from worker threads) as portals finish.
-pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &(dyn Fn(VisProgress) + Sync)) -> Result<VisResult, VisError> {
+pub fn run(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    progress: &(dyn Fn(VisProgress) + Sync),
+) -> Result<VisResult, VisError> {
     if opts.level > 4 {
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
@@ -252,7 +256,10 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
         return Err(VisError::Invalid(format!("cluster {c} out of range ({} clusters)", prt.num_clusters)));
     }
     if let Some(p) = prt.portals.iter().find(|p| p.leaves.iter().any(|&c| c >= prt.num_clusters)) {
-        return Err(VisError::Invalid(format!("portal joins {:?}, out of range ({} clusters)", p.leaves, prt.num_clusters)));
+        return Err(VisError::Invalid(format!(
+            "portal joins {:?}, out of range ({} clusters)",
+            p.leaves, prt.num_clusters
+        )));
     }
     Ok(())
 }
@@ -290,13 +297,9 @@ fn run_in_pool(
         ..VisStats::default()
     };
     let t1 = Instant::now();
-    let portal_vis = if opts.fast {
-        might.clone()
-    } else {
-        flow_all(prt, &g, &might, words, opts, progress, &mut stats)?
-    };
+    let portal_vis =
+        if opts.fast { might.clone() } else { flow_all(prt, &g, &might, words, opts, progress, &mut stats)? };
     stats.flow_seconds = t1.elapsed().as_secs_f64();
-    eprintln!("C {:?}", flow::C.iter().map(|a| a.load(Ordering::Relaxed)).collect::<Vec<_>>());
     let t2 = Instant::now();
     let mut result = cluster_rows(prt, &g, &portal_vis, words);
     if !opts.fast {
@@ -344,7 +347,7 @@ fn flow_all(
         let rows: Vec<(Vec<u64>, u64)> = batch
             .par_iter()
             .map_init(
-                || flow::Flow::new(words, opts.level),
+                || flow::Flow::new(words, g.num_clusters(), opts.level),
                 |f, &p| {
                     let mut out = vec![0u64; words];
                     f.chains = 0;
@@ -364,7 +367,10 @@ fn flow_all(
         if let Some(path) = &opts.state
             && (stop || (done < n && last_save.elapsed() >= opts.checkpoint_interval))
         {
-            let rows: Vec<u64> = order[..done].iter().flat_map(|&p| test[p * words..(p + 1) * words].iter().copied()).collect();
+            let rows: Vec<u64> = order[..done]
+                .iter()
+                .flat_map(|&p| test[p * words..(p + 1) * words].iter().copied())
+                .collect();
             state::save(path, &state::State::new(hash, n, words, done, rows, stats.chains))?;
             last_save = Instant::now();
         }

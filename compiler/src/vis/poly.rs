@@ -177,54 +177,73 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
         if (ca - ai).dot(x) > 0.0 {
             x = -x;
         }
-        // The vertex of `b` at the largest angle from +x toward +y (toward `a`'s outside).
-        let (mut bx, mut by) = (0.0f64, 0.0f64);
-        let mut found = false;
-        for q in b_pts {
+        // The vertices of `b` at the largest and smallest angle from +x toward +y: the planes
+        // through them are the only candidates (the second separates only when `b` crosses
+        // `a`'s plane).
+        let v0 = b_pts[0] - ai;
+        let (mut hx, mut hy) = (v0.dot(x), v0.dot(y));
+        let (mut lx, mut ly) = (hx, hy);
+        for q in &b_pts[1..] {
             let v = *q - ai;
             let (qx, qy) = (v.dot(x), v.dot(y));
-            if !found || bx * qy - by * qx > 0.0 {
-                (bx, by) = (qx, qy);
-                found = true;
-            }
+            let up = hx * qy - hy * qx > 0.0;
+            hx = if up { qx } else { hx };
+            hy = if up { qy } else { hy };
+            let down = lx * qy - ly * qx < 0.0;
+            lx = if down { qx } else { lx };
+            ly = if down { qy } else { ly };
         }
-        let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
-        let dist = normal.dot(ai);
-        let (mut b_front, mut b_ok) = (false, true);
-        for q in b_pts {
-            let d = normal.dot(*q) - dist;
-            if d < -SEPARATOR_EPSILON {
-                b_ok = false;
+        for (k, (bx, by)) in [(hx, hy), (-lx, -ly)].into_iter().enumerate() {
+            if k == 1 && (lx, ly) == (hx, hy) {
                 break;
             }
-            b_front |= d > SEPARATOR_EPSILON;
-        }
-        if !b_ok || !b_front {
-            continue;
-        }
-        let (mut a_back, mut a_ok) = (false, true);
-        for q in a_pts {
-            let d = normal.dot(*q) - dist;
-            if d > SEPARATOR_EPSILON {
-                a_ok = false;
-                break;
+            let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
+            if !separates(normal, normal.dot(ai), a_pts, b_pts) {
+                continue;
             }
-            a_back |= d < -SEPARATOR_EPSILON;
-        }
-        if !a_ok || !a_back {
-            continue;
-        }
-        let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
-        if !f(&plane) {
-            return;
+            let dist = normal.dot(ai);
+            let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
+            if !f(&plane) {
+                return;
+            }
         }
     }
+}
+
+/// True when the plane puts all of `a` behind and all of `b` in front, each with some point beyond
+/// [`SEPARATOR_EPSILON`].
+#[inline]
+fn separates(normal: DVec3, dist: f64, a: &[DVec3], b: &[DVec3]) -> bool {
+    let mut b_front = false;
+    for q in b {
+        let d = normal.dot(*q) - dist;
+        if d < -SEPARATOR_EPSILON {
+            return false;
+        }
+        b_front |= d > SEPARATOR_EPSILON;
+    }
+    let mut a_back = false;
+    for q in a {
+        let d = normal.dot(*q) - dist;
+        if d > SEPARATOR_EPSILON {
+            return false;
+        }
+        a_back |= d < -SEPARATOR_EPSILON;
+    }
+    b_front && a_back
 }
 
 /// Clip `target` by every separating plane of (`a`, `b`) (see [`for_each_separator`]); returns
 /// `false` as soon as nothing is left.
 /// `bound` holds `target`.
-pub fn clip_to_separators(a: &Poly, b: &Poly, flip: bool, target: &mut Poly, bound: &Sphere, tmp: &mut Poly) -> bool {
+pub fn clip_to_separators(
+    a: &Poly,
+    b: &Poly,
+    flip: bool,
+    target: &mut Poly,
+    bound: &Sphere,
+    tmp: &mut Poly,
+) -> bool {
     let mut alive = true;
     for_each_separator(a, b, flip, |plane| {
         alive = target.clip_in(bound, plane, CLIP_EPSILON, tmp) != Clip::Gone;

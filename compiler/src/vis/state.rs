@@ -37,8 +37,23 @@ pub struct State {
 
 impl State {
     /// A state for this run.
-    pub fn new(input_hash: u64, portals: usize, words: usize, done: usize, rows: Vec<u64>, chains: u64) -> Self {
-        Self { magic: MAGIC, input_hash, portals: portals as u64, words: words as u64, done: done as u64, rows, chains }
+    pub fn new(
+        input_hash: u64,
+        portals: usize,
+        words: usize,
+        done: usize,
+        rows: Vec<u64>,
+        chains: u64,
+    ) -> Self {
+        Self {
+            magic: MAGIC,
+            input_hash,
+            portals: portals as u64,
+            words: words as u64,
+            done: done as u64,
+            rows,
+            chains,
+        }
     }
 }
 
@@ -93,7 +108,8 @@ pub fn load(path: &Path, input_hash: u64, portals: usize, words: usize) -> Resul
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(VisError::State(format!("{}: {e}", path.display()))),
     };
-    let state = decode(&bytes).map_err(|e| VisError::State(format!("{}: not a vis state: {e}", path.display())))?;
+    let state =
+        decode(&bytes).map_err(|e| VisError::State(format!("{}: not a vis state: {e}", path.display())))?;
     if state.magic != MAGIC {
         return Err(VisError::State(format!("{}: not a vis state", path.display())));
     }
@@ -125,7 +141,8 @@ mod tests {
         std::fs::write(&path, [1u8, 2, 3]).expect("write");
         assert!(load(&path, 42, 10, 1).is_err());
         // A huge claimed length in a tiny file is refused, not allocated.
-        let mut bytes = bincode::serde::encode_to_vec(State::new(42, 10, 1, 2, vec![5, 7], 99), config()).expect("enc");
+        let mut bytes =
+            bincode::serde::encode_to_vec(State::new(42, 10, 1, 2, vec![5, 7], 99), config()).expect("enc");
         let len_at = 8 * 5;
         bytes[len_at..len_at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
         std::fs::write(&path, &bytes).expect("write");

@@ -34,7 +34,13 @@ fn corridor(offsets: &[f64], widths: &[f64]) -> PortalFile {
         })
         .collect::<Vec<_>>();
     let n = offsets.len() as u32 + 1;
-    PortalFile { format: PrtFormat::Prt1, num_leaves: n, num_clusters: n, portals, leaf_clusters: (0..n).collect() }
+    PortalFile {
+        format: PrtFormat::Prt1,
+        num_leaves: n,
+        num_clusters: n,
+        portals,
+        leaf_clusters: (0..n).collect(),
+    }
 }
 
 fn none() -> impl Fn(VisProgress) + Sync {
@@ -91,7 +97,8 @@ fn deterministic_across_threads_and_resumable() {
     let dir = std::env::temp_dir().join(format!("sightline-vis-unit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     let state = dir.join("c.state");
-    let opts = VisOptions { state: Some(state.clone()), stop_after: Some(FLOW_BATCH), ..VisOptions::default() };
+    let opts =
+        VisOptions { state: Some(state.clone()), stop_after: Some(FLOW_BATCH), ..VisOptions::default() };
     assert!(matches!(run(&prt, &opts, &none()), Err(VisError::Interrupted { .. })));
     let resumed = run(&prt, &VisOptions { stop_after: None, ..opts }, &none()).expect("resume");
     assert_eq!(resumed.stats.resumed_portals, FLOW_BATCH);
@@ -103,7 +110,10 @@ fn deterministic_across_threads_and_resumable() {
 #[test]
 fn rejects_bad_level_and_inconsistent_files() {
     let prt = corridor(&[0.0], &[64.0]);
-    assert!(matches!(run(&prt, &VisOptions { level: 5, ..VisOptions::default() }, &none()), Err(VisError::Option(_))));
+    assert!(matches!(
+        run(&prt, &VisOptions { level: 5, ..VisOptions::default() }, &none()),
+        Err(VisError::Option(_))
+    ));
     let mut bad = prt.clone();
     bad.leaf_clusters = vec![0, 7];
     assert!(matches!(run(&bad, &VisOptions::default(), &none()), Err(VisError::Invalid(_))));

@@ -488,6 +488,113 @@ fn fill_all_visible(row: &mut [u8], visleafs: usize) {
 mod tests {
     use super::*;
 
+    /// A minimal BSP29: one plane, one node splitting solid leaf 0 from empty leaf 1, one model,
+    /// and `visdata` (leaf 1's row at offset 0). Lumps are laid out in index order, 4-aligned.
+    fn tiny(visdata: &[u8], child: i16) -> Vec<u8> {
+        let mut lumps: Vec<Vec<u8>> = vec![Vec::new(); NUM_LUMPS];
+        lumps[lump::ENTITIES] = b"{\n\"classname\" \"worldspawn\"\n}\n\0".to_vec();
+        lumps[lump::PLANES] =
+            [0f32, 0.0, 1.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).chain(2i32.to_le_bytes()).collect();
+        lumps[lump::VISIBILITY] = visdata.to_vec();
+        let mut node = 0i32.to_le_bytes().to_vec();
+        for v in [child, -2, -64, -64, -64, 64, 64, 64, 0, 0] {
+            node.extend_from_slice(&v.to_le_bytes());
+        }
+        lumps[lump::NODES] = node;
+        let leaf = |contents: i32, visofs: i32| {
+            let mut l = contents.to_le_bytes().to_vec();
+            l.extend_from_slice(&visofs.to_le_bytes());
+            l.extend_from_slice(&[0; 20]);
+            l
+        };
+        lumps[lump::LEAVES] = [leaf(-2, -1), leaf(-1, 0)].concat();
+        let mut model = vec![0u8; 36];
+        for v in [0i32, -1, -1, -1, 1, 0, 0] {
+            model.extend_from_slice(&v.to_le_bytes());
+        }
+        lumps[lump::MODELS] = model;
+        let mut out = vec![0u8; HEADER_BYTES];
+        out[..4].copy_from_slice(&29i32.to_le_bytes());
+        for (i, data) in lumps.iter().enumerate() {
+            out.resize(out.len().next_multiple_of(4), 0);
+            let at = 4 + 8 * i;
+            let offset = out.len() as i32;
+            out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
+            out[at + 4..at + 8].copy_from_slice(&(data.len() as i32).to_le_bytes());
+            out.extend_from_slice(data);
+        }
+        out
+    }
+
+    #[test]
+    fn reads_a_tiny_bsp_and_its_row() {
+        let bsp = read(&tiny(&[1], -1)).unwrap();
+        assert_eq!(bsp.version, BspVersion::Bsp29);
+        assert_eq!(bsp.visleafs(), 1);
+        assert_eq!(bsp.nodes[0].children, [-1, -2]);
+        assert_eq!(bsp.decode_leaf_pvs(1), Ok(vec![1]));
+        assert!(matches!(bsp.decode_leaf_pvs(0), Err(BspError::NotAVisLeaf { leaf: 0, visleafs: 1 })));
+        assert_eq!(bsp.pvs_stats().unwrap().unwrap().max_visible, 1);
+        assert!(bsp.entities.contains("worldspawn"));
+        let level = to_level(&bsp);
+        assert_eq!(level.leaves[1].cluster, 0);
+        assert_eq!(level.leaves[0].cluster, -1);
+        assert_eq!(level.pvs_offsets, [0]);
+    }
+
+    #[test]
+    fn errors_name_the_byte() {
+        let good = tiny(&[1], -1);
+        assert_eq!(read(&good[..100]), Err(BspError::TooShort { len: 100 }));
+        let mut bad = good.clone();
+        bad[0] = 30;
+        assert!(matches!(read(&bad), Err(BspError::Version { .. })));
+        let mut bad = good.clone();
+        let at = 4 + 8 * lump::MODELS + 4;
+        bad[at..at + 4].copy_from_slice(&1000i32.to_le_bytes());
+        assert!(matches!(read(&bad), Err(BspError::LumpBounds { header_offset: 116, lump: 14, .. })));
+        // Node child 5 (stored unsigned, >= node count) means leaf 65530: out of range.
+        assert!(matches!(read(&tiny(&[1], 5)), Err(BspError::Invalid { .. })));
+        // Node 0 as its own child.
+        assert!(matches!(read(&tiny(&[1], 0)), Err(BspError::Invalid { .. })));
+        // A run overflowing the one-byte row.
+        assert!(matches!(read(&tiny(&[0, 2], -1)), Err(BspError::Row { leaf: 1, .. })));
+        assert!(matches!(read(&tiny(&[0], -1)), Err(BspError::Row { leaf: 1, .. })));
+    }
+
+    #[test]
+    fn visdata_write_back_moves_later_lumps() {
+        let original = tiny(&[1], -1);
+        let out =
+            write_with_visdata(&original, &[0xff, 0, 0, 0, 0, 1], &[-1, 5], Some(&[[0; 4], [9, 8, 7, 6]]))
+                .unwrap();
+        let bsp = read(&out).unwrap();
+        assert_eq!(bsp.visdata, [0xff, 0, 0, 0, 0, 1]);
+        assert_eq!(bsp.leaves[1].visofs, 5);
+        assert_eq!(bsp.leaves[1].ambient, [9, 8, 7, 6]);
+        assert_eq!(bsp.decode_leaf_pvs(1), Ok(vec![1]));
+        assert!(bsp.lumps.iter().all(|l| l.offset % 4 == 0));
+        let before = read(&original).unwrap();
+        assert_eq!((bsp.nodes, bsp.models, bsp.entities), (before.nodes, before.models, before.entities));
+        assert!(matches!(write_with_visdata(&original, &[1], &[-1], None), Err(BspError::Write(_))));
+        assert!(matches!(
+            write_with_visdata(&original, &[1], &[-1, 0], Some(&[[0; 4]])),
+            Err(BspError::Write(_))
+        ));
+        // An empty visibility lump recorded at offset 0: the rows are appended, 4-aligned.
+        let mut at_zero = original.clone();
+        let at = 4 + 8 * lump::VISIBILITY;
+        at_zero[at..at + 4].copy_from_slice(&0i32.to_le_bytes());
+        at_zero[at + 4..at + 8].copy_from_slice(&0i32.to_le_bytes());
+        at_zero.push(7);
+        let out = write_with_visdata(&at_zero, &[1], &[-1, 0], None).unwrap();
+        assert_eq!(out.len(), at_zero.len().next_multiple_of(4) + 4);
+        assert_eq!(&out[at_zero.len() - 1..at_zero.len()], &[7]);
+        assert_eq!(read(&out).unwrap().lumps[lump::VISIBILITY].offset, at_zero.len().next_multiple_of(4));
+        // A row offset outside the new visdata is caught by the read-back.
+        assert!(write_with_visdata(&original, &[1], &[-1, 1], None).is_err());
+    }
+
     #[test]
     fn all_visible_row_sets_only_vis_leaves() {
         let mut row = [0u8; 3];

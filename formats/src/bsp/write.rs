@@ -1,6 +1,6 @@
 //! Replacing the visibility lump of an existing BSP file.
 
-use super::{BspError, HEADER_BYTES, lump, parse, read};
+use super::{BspError, HEADER_BYTES, LumpEntry, lump, parse, read};
 
 fn align4(x: usize) -> usize {
     x.next_multiple_of(4)
@@ -12,11 +12,12 @@ fn write_err(msg: impl Into<String>) -> BspError {
 
 /// Returns `original` with lump 4 replaced by `visdata`, every leaf's `visofs` set from
 /// `leaf_visofs` (one per leaf: for vis leaves `-1` or the offset of a row in `visdata`; other
-/// leaves are not read by engines) and, when given, every leaf's
-/// ambient sound levels (water, sky, slime, lava).
+/// leaves are not read by engines) and, when given, every leaf's ambient sound levels (water, sky,
+/// slime, lava).
 ///
 /// Lumps stored after the visibility lump move with it; Quake's 4-byte alignment of lump starts is
-/// kept (the padding written is zero bytes). Every other byte of every other lump is unchanged, so
+/// kept (the padding written is zero bytes). An empty visibility lump recorded inside the header
+/// (offset 0) gets its new data appended at the end of the file. Every other byte of every other lump is unchanged, so
 /// writing back the visdata a file already has reproduces it exactly. The result is read back
 /// with [`read`] before it is returned, so a file that would not load is never produced.
 pub fn write_with_visdata(
@@ -43,7 +44,22 @@ pub fn write_with_visdata(
     if let Some(a) = ambient.filter(|a| a.len() != num_leaves) {
         return Err(write_err(format!("{} ambient levels given for {num_leaves} leaves", a.len())));
     }
-    let vis = lumps[lump::VISIBILITY];
+    let mut vis = lumps[lump::VISIBILITY];
+    // An empty visibility lump recorded inside the header (offset 0 from some compilers) has no
+    // place among the lumps: the new data goes at the end of the file, 4-aligned.
+    let appended;
+    let original = if vis.offset < HEADER_BYTES {
+        if vis.length > 0 {
+            return Err(write_err("the visibility lump overlaps the header"));
+        }
+        let mut padded = original.to_vec();
+        padded.resize(align4(padded.len()), 0);
+        vis = LumpEntry { offset: padded.len(), length: 0 };
+        appended = padded;
+        &appended[..]
+    } else {
+        original
+    };
     let (old_start, old_end) = (vis.offset, vis.end());
     for (j, l) in lumps.iter().enumerate() {
         if j != lump::VISIBILITY && l.length > 0 && l.offset < old_end && old_start < l.end() {
@@ -74,7 +90,7 @@ pub fn write_with_visdata(
 
     // Header: the visibility lump, then every lump that followed it moves by the same amount.
     let mut header = lumps;
-    header[lump::VISIBILITY].length = visdata.len();
+    header[lump::VISIBILITY] = LumpEntry { offset: old_start, length: visdata.len() };
     for (j, l) in header.iter_mut().enumerate() {
         if j == lump::VISIBILITY {
             continue;
@@ -94,7 +110,6 @@ pub fn write_with_visdata(
         out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
         out[at + 4..at + 8].copy_from_slice(&length.to_le_bytes());
     }
-    debug_assert!(out.len() >= HEADER_BYTES);
 
     let leaves_at = header[lump::LEAVES].offset;
     let ambient_at = version.leaf_ambient_offset();

@@ -8,6 +8,7 @@
 //! - `gvs` (module `backend/gvs.rs`, owned by the GVS work): the faces of the eye's GVS view cell.
 //!   It implements [`Backend`] and adds itself to [`all`].
 
+pub mod gvs;
 pub mod portal;
 pub mod pvs;
 

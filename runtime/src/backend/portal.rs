@@ -4,17 +4,17 @@
 //! current frustum; if something is left, the frustum is rebuilt from planes through the eye and
 //! each edge of the clipped polygon, plus the portal's own plane (only what lies beyond the portal
 //! counts) and the camera's far plane, and the search recurses into the leaf behind it. A leaf is
-//! never re-entered while it is on the current path, the depth is capped at [`MAX_DEPTH`], the
-//! entries into one leaf at [`MAX_ENTRIES_PER_LEAF`] and the portals crossed per frame at
-//! [`BUDGET`] (`FrameStats::truncated` reports when a cap was hit). The leaves
+//! never re-entered while it is on the current path, the depth is capped at [`MAX_DEPTH`] and the portals
+//! crossed per frame at [`BUDGET`] (`FrameStats::truncated` reports when a cap was hit). The leaves
 //! reached are then walked front to back with the full camera frustum, as the PVS backend does.
 //!
 //! # Epsilon
 //! Decisions round toward **not visible** by at most [`PORTAL_EPSILON`]: a portal whose plane
 //! passes within `PORTAL_EPSILON` units of the eye is crossed only from the eye's own leaf (then
 //! without narrowing the frustum, since the eye is on the opening), and a clipped portal polygon
-//! with less than `PORTAL_EPSILON²` square units of area, or seen under less than
-//! [`MIN_SOLID_ANGLE`], is treated as closed. So the leaves found
+//! with less than `PORTAL_EPSILON²` square units of area across the line of sight, or seen under
+//! less than [`MIN_SOLID_ANGLE`], is treated as closed; clipped corners closer than
+//! `PORTAL_EPSILON` are merged. So the leaves found
 //! are those some line of sight reaches through openings at least that wide, which keeps them
 //! inside any conservative PVS.
 
@@ -34,12 +34,7 @@ pub const MIN_SOLID_ANGLE: f32 = 2.5e-7;
 /// Longest chain of portals followed.
 pub const MAX_DEPTH: u32 = 96;
 /// Most portals crossed in one frame.
-pub const BUDGET: u32 = 1 << 14;
-/// Most times one leaf is entered in one frame (through different portal chains). Open areas cut
-/// into many small leaves otherwise make the number of chains explode; the cap keeps the worst
-/// frame bounded at the price of possibly missing leaves seen only through a later chain
-/// (`FrameStats::truncated` tells).
-pub const MAX_ENTRIES_PER_LEAF: u32 = 8;
+pub const BUDGET: u32 = 1 << 12;
 
 /// The portal backend; see the module docs.
 #[derive(Debug, Clone, Copy, Default)]
@@ -59,17 +54,16 @@ impl Backend for Portal {
         scratch.next_mark_gen();
         scratch.stats.marks_reused = false;
         scratch.stats.truncated = false;
-        scratch.entry_polys.clear();
-        scratch.entry_list.clear();
         let eye_leaf = world.leaf_at(view.eye);
         let open = world.leaf_contents(eye_leaf).is_some_and(|c| c.is_open());
-        let mut search = Search { eye: view.eye, far: (view.frustum.normals[5], view.frustum.dists[5]), crossed: 0, marked: 0, truncated: false };
+        let mut search = Search { eye: view.eye, far: view.frustum.planes()[5], crossed: 0, marked: 0, truncated: false };
         if open {
             scratch.mark_leaf(world, eye_leaf);
             search.marked = 1;
             scratch.planes.clear();
+            let planes = view.frustum.planes();
             for i in [0, 1, 2, 3, 5] {
-                scratch.planes.push((view.frustum.normals[i], view.frustum.dists[i]));
+                scratch.planes.push(planes[i]);
             }
             search.enter(world, scratch, eye_leaf, 0, 0);
         } else {
@@ -95,19 +89,6 @@ impl Search {
     fn enter(&mut self, world: &World, scratch: &mut Scratch, leaf: LeafId, planes_start: usize, depth: u32) {
         if let Some(p) = scratch.on_path.get_mut(leaf as usize) {
             *p = true;
-        }
-        if let Some(e) = scratch.entries.get_mut(leaf as usize) {
-            if e.0 != scratch.mark_gen {
-                *e = (scratch.mark_gen, 0);
-            }
-            e.1 += 1;
-            if e.1 > MAX_ENTRIES_PER_LEAF {
-                self.truncated = true;
-                if let Some(p) = scratch.on_path.get_mut(leaf as usize) {
-                    *p = false;
-                }
-                return;
-            }
         }
         let planes_end = scratch.planes.len();
         for &pi in world.leaf_portals(leaf) {
@@ -152,33 +133,33 @@ impl Search {
             if empty {
                 continue;
             }
+            dedup_points(&mut scratch.poly_a, PORTAL_EPSILON);
             let count = scratch.poly_a.len();
-            let centroid = scratch.poly_a.iter().copied().sum::<Vec3A>() / count as f32;
-            let a = area(&scratch.poly_a);
-            if a < PORTAL_EPSILON * PORTAL_EPSILON || a < MIN_SOLID_ANGLE * centroid.distance_squared(self.eye) {
+            if count < 3 {
                 continue;
             }
-            if covered(scratch, other, self.eye) {
+            let centroid = scratch.poly_a.iter().copied().sum::<Vec3A>() / count as f32;
+            // Solid angle of the window: area projected across the line of sight over distance².
+            let to_window = centroid - self.eye;
+            let projected = area(&scratch.poly_a) * n.dot(to_window).abs() / to_window.length().max(f32::MIN_POSITIVE);
+            if projected < PORTAL_EPSILON * PORTAL_EPSILON || projected < MIN_SOLID_ANGLE * to_window.length_squared() {
                 continue;
             }
             if !self.cross(world, scratch, other) {
                 continue;
             }
-            remember(scratch, other);
-            // The narrowed frustum: eye-edge planes, the portal plane, the far plane.
+
+            // The narrowed frustum: eye-edge planes, the portal plane, the far plane. Edge planes
+            // are built in f64: an edge nearly aligned with the line of sight spans a tiny angle,
+            // and its plane still matters (dropping it could widen the frustum a lot).
             let new_start = scratch.planes.len();
+            let eye = self.eye.as_dvec3();
+            let inside = to_window.as_dvec3();
             for i in 0..count {
                 let (Some(&a), Some(&b)) = (scratch.poly_a.get(i), scratch.poly_a.get((i + 1) % count)) else { break };
-                // An edge seen under less than ~1e-4 radians (clipping leaves such slivers) gives
-                // no reliable plane; dropping it only widens the frustum.
-                let (ea, eb) = (a - self.eye, b - self.eye);
-                let c = ea.cross(eb);
-                if c.length_squared() <= 1e-8 * ea.length_squared() * eb.length_squared() {
-                    continue;
-                }
-                let Some(en) = c.try_normalize() else { continue };
-                let en = if en.dot(centroid - self.eye) < 0.0 { -en } else { en };
-                scratch.planes.push((en, en.dot(self.eye)));
+                let Some(en) = (a.as_dvec3() - eye).cross(b.as_dvec3() - eye).try_normalize() else { continue };
+                let en = if en.dot(inside) < 0.0 { -en } else { en };
+                scratch.planes.push((en.as_vec3a(), en.dot(eye) as f32));
             }
             scratch.planes.push((n, d));
             scratch.planes.push(self.far);
@@ -207,53 +188,6 @@ impl Search {
     }
 }
 
-/// True when the cone from `eye` through `scratch.poly_a` lies inside the cone of an earlier
-/// entry into `leaf` this frame (within [`PORTAL_EPSILON`]): whatever it could reveal, that
-/// entry's search already found.
-fn covered(scratch: &Scratch, leaf: LeafId, eye: Vec3A) -> bool {
-    let Some(&(gen_, mut at)) = scratch.entry_head.get(leaf as usize) else { return false };
-    if gen_ != scratch.mark_gen {
-        return false;
-    }
-    while let Some(&(start, len, next)) = scratch.entry_list.get(at as usize) {
-        let Some(q) = scratch.entry_polys.get(start as usize..start as usize + len as usize) else { break };
-        if cone_contains(q, &scratch.poly_a, eye) {
-            return true;
-        }
-        at = next;
-    }
-    false
-}
-
-/// True when every point of `p` is inside the cone from `eye` through convex polygon `q`.
-fn cone_contains(q: &[Vec3A], p: &[Vec3A], eye: Vec3A) -> bool {
-    let count = q.len();
-    if count < 3 {
-        return false;
-    }
-    let centroid = q.iter().copied().sum::<Vec3A>() / count as f32;
-    for i in 0..count {
-        let (Some(&a), Some(&b)) = (q.get(i), q.get((i + 1) % count)) else { return false };
-        let Some(n) = (a - eye).cross(b - eye).try_normalize() else { continue };
-        let n = if n.dot(centroid - eye) < 0.0 { -n } else { n };
-        if p.iter().any(|&v| n.dot(v - eye) < -PORTAL_EPSILON) {
-            return false;
-        }
-    }
-    true
-}
-
-/// Record `scratch.poly_a` as an entry into `leaf` this frame.
-fn remember(scratch: &mut Scratch, leaf: LeafId) {
-    let gen_ = scratch.mark_gen;
-    let Some(head) = scratch.entry_head.get_mut(leaf as usize) else { return };
-    let next = if head.0 == gen_ { head.1 } else { u32::MAX };
-    let start = scratch.entry_polys.len() as u32;
-    scratch.entry_polys.extend_from_slice(&scratch.poly_a);
-    scratch.entry_list.push((start, scratch.poly_a.len() as u32, next));
-    *head = (gen_, scratch.entry_list.len() as u32 - 1);
-}
-
 /// Keep the part of convex polygon `input` in front of the plane (`n · p - d >= 0`).
 fn clip(input: &[Vec3A], n: Vec3A, d: f32, out: &mut Vec<Vec3A>) {
     out.clear();
@@ -271,6 +205,25 @@ fn clip(input: &[Vec3A], n: Vec3A, d: f32, out: &mut Vec<Vec3A>) {
         }
         prev = cur;
         prev_d = cur_d;
+    }
+}
+
+/// Drop points closer than `eps` to the previous kept point (and a last point equal to the first).
+fn dedup_points(poly: &mut Vec<Vec3A>, eps: f32) {
+    let eps2 = eps * eps;
+    let mut kept = 0;
+    for i in 0..poly.len() {
+        let Some(&p) = poly.get(i) else { break };
+        if kept == 0 || poly.get(kept - 1).is_some_and(|q| q.distance_squared(p) > eps2) {
+            if let Some(slot) = poly.get_mut(kept) {
+                *slot = p;
+            }
+            kept += 1;
+        }
+    }
+    poly.truncate(kept);
+    while poly.len() > 1 && poly.first().zip(poly.last()).is_some_and(|(a, b)| a.distance_squared(*b) <= eps2) {
+        poly.pop();
     }
 }
 

@@ -51,14 +51,14 @@ struct Report {
     /// Leaves output after the frustum.
     visible_leaves_avg: f64,
     visible_faces_avg: f64,
-    /// Mean frame time over mean PVS leaves.
+    /// Median over frames of (frame time / that frame's PVS leaves).
     ns_per_pvs_leaf: f64,
-    /// PVS backend only: mean time of locating the eye, decoding the row and marking up the tree.
-    mark_ns_mean: Option<f64>,
-    /// PVS backend only: mean time of the frustum walk alone.
-    walk_ns_mean: Option<f64>,
-    /// PVS backend only: walk time over mean PVS leaves (comparable to the C reference's 68 ns,
-    /// which is its traversal over its PVS leaves).
+    /// PVS backend only: median time of locating the eye, decoding the row and marking up the tree.
+    mark_ns_median: Option<u64>,
+    /// PVS backend only: median time of the frustum walk alone.
+    walk_ns_median: Option<u64>,
+    /// PVS backend only: median over frames of (walk time / PVS leaves), comparable to the C
+    /// reference's 68 ns (its traversal time over its PVS leaves).
     walk_ns_per_pvs_leaf: Option<f64>,
     /// Frames where the portal search hit its budget.
     truncated_frames: usize,
@@ -110,11 +110,14 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         backend.cull(world, view, &mut scratch, &mut out);
     }
     let mut times = Vec::with_capacity(views.len());
+    let mut per_leaf = Vec::with_capacity(views.len());
     let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
     for view in &views {
         let start = Instant::now();
         backend.cull(world, view, &mut scratch, &mut out);
-        times.push(start.elapsed().as_nanos() as u64);
+        let ns = start.elapsed().as_nanos() as u64;
+        times.push(ns);
+        per_leaf.push(ns as f64 / f64::from(scratch.stats.marked_leaves.max(1)));
         marked += u64::from(scratch.stats.marked_leaves);
         leaves += out.leaves.len() as u64;
         faces += out.faces.len() as u64;
@@ -125,7 +128,8 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     times.sort_unstable();
     let pick = |q: f64| times.get(((times.len() - 1) as f64 * q).round() as usize).copied().unwrap_or(0);
     let pvs_avg = marked as f64 / n;
-    let (mark_ns, walk_ns) = if backend.name() == "pvs" { phases(world, &views) } else { (None, None) };
+    let (mark_ns, walk_ns, walk_per_leaf) =
+        if backend.name() == "pvs" { phases(world, &views) } else { (None, None, None) };
     Report {
         backend: backend.name(),
         frames: views.len(),
@@ -136,31 +140,38 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         pvs_leaves_avg: pvs_avg,
         visible_leaves_avg: leaves as f64 / n,
         visible_faces_avg: faces as f64 / n,
-        ns_per_pvs_leaf: mean / pvs_avg.max(1.0),
-        mark_ns_mean: mark_ns,
-        walk_ns_mean: walk_ns,
-        walk_ns_per_pvs_leaf: walk_ns.map(|w| w / pvs_avg.max(1.0)),
+        ns_per_pvs_leaf: median(&mut per_leaf),
+        mark_ns_median: mark_ns,
+        walk_ns_median: walk_ns,
+        walk_ns_per_pvs_leaf: walk_per_leaf,
         truncated_frames: truncated,
     }
 }
 
-/// Mean time of the PVS backend's two phases: locate + decode + mark, then the walk.
-fn phases(world: &World, views: &[sightline_runtime::View]) -> (Option<f64>, Option<f64>) {
+/// Median of a sample (0 for none).
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_unstable_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Medians of the PVS backend's two phases (locate + decode + mark, then the walk) and of the
+/// walk time per PVS leaf.
+fn phases(world: &World, views: &[sightline_runtime::View]) -> (Option<u64>, Option<u64>, Option<f64>) {
     let mut scratch = Scratch::new(world);
     let mut out = Visible::for_world(world);
-    let (mut mark, mut walk) = (0u128, 0u128);
+    let (mut mark, mut walk, mut per_leaf) = (Vec::new(), Vec::new(), Vec::new());
     for view in views {
         let t0 = Instant::now();
         let leaf = world.leaf_at(view.eye);
-        Pvs::mark(world, leaf, &mut scratch);
+        let marked = Pvs::mark(world, leaf, &mut scratch);
         let t1 = Instant::now();
         walk_marked(world, view, &mut scratch, &mut out);
         let t2 = Instant::now();
-        mark += (t1 - t0).as_nanos();
-        walk += (t2 - t1).as_nanos();
+        mark.push((t1 - t0).as_nanos() as f64);
+        walk.push((t2 - t1).as_nanos() as f64);
+        per_leaf.push((t2 - t1).as_nanos() as f64 / f64::from(marked.max(1)));
     }
-    let n = views.len().max(1) as f64;
-    (Some(mark as f64 / n), Some(walk as f64 / n))
+    (Some(median(&mut mark) as u64), Some(median(&mut walk) as u64), Some(median(&mut per_leaf)))
 }
 
 fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64, reports: &[Report]) {
@@ -190,8 +201,8 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
             r.ns_per_pvs_leaf,
             walk
         );
-        if let (Some(m), Some(w)) = (r.mark_ns_mean, r.walk_ns_mean) {
-            println!("         phases: locate + decode + mark {m:.0} ns, walk {w:.0} ns (means)");
+        if let (Some(m), Some(w)) = (r.mark_ns_median, r.walk_ns_median) {
+            println!("         phases (medians): locate + decode + mark {m} ns, walk {w} ns");
         }
         if r.truncated_frames > 0 {
             println!("         {} frames hit the portal search budget", r.truncated_frames);

@@ -534,15 +534,24 @@ fn load(input: &str, scene_seed: u64) -> anyhow::Result<(TriScene, Option<sightl
 }
 
 fn load_obj(path: &Path) -> anyhow::Result<TriScene> {
-    bail!("{}: .obj input needs formats::obj (not available yet)", path.display())
+    let mesh = sightline_formats::obj::load(path)?;
+    let triangles = (0..mesh.triangles.len())
+        .filter_map(|i| mesh.triangle(i))
+        .map(|t| t.map(|p| p.as_vec3()))
+        .collect();
+    Ok(TriScene { triangles, face_of: None, suggested: Vec::new() })
 }
 
 fn read_level(path: &Path) -> anyhow::Result<sightline_formats::Level> {
-    bail!("{}: .slvl input needs formats::slvl (not available yet)", path.display())
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    sightline_formats::slvl::read(&bytes).with_context(|| format!("{}", path.display()))
 }
 
-fn write_level(path: &Path, _level: &sightline_formats::Level) -> anyhow::Result<()> {
-    bail!("{}: .slvl output needs formats::slvl (not available yet)", path.display())
+fn write_level(path: &Path, level: &sightline_formats::Level) -> anyhow::Result<()> {
+    sightline_formats::slvl::validate(level)?;
+    let bytes = sightline_formats::slvl::write(level, &sightline_formats::slvl::WriteOptions { compress: true });
+    sightline_formats::atomic::write_file_atomic(path, &bytes)?;
+    Ok(())
 }
 
 /// CPU seconds this process has used (user + system), from `/proc/self/stat`; `None` elsewhere.

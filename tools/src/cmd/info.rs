@@ -409,3 +409,44 @@ impl InfoReport {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kind_from_extension_then_magic() {
+        let none = Path::new("file");
+        assert_eq!(kind_of(Path::new("a.MAP"), b""), Some(Kind::Map));
+        assert_eq!(kind_of(Path::new("a.bsp"), b"SLVL"), Some(Kind::Bsp));
+        assert_eq!(kind_of(none, b"SLVL\x01\0\0\0"), Some(Kind::Slvl));
+        assert_eq!(kind_of(none, &[29, 0, 0, 0, 1]), Some(Kind::Bsp));
+        assert_eq!(kind_of(none, b"BSP2...."), Some(Kind::Bsp));
+        assert_eq!(kind_of(none, b"2PSB...."), Some(Kind::Bsp));
+        assert_eq!(kind_of(none, b"PRT1\n3\n2\n"), Some(Kind::Prt));
+        assert_eq!(kind_of(none, b"PRT1-AM\n"), Some(Kind::Prt));
+        assert_eq!(kind_of(none, b"// Game: Quake\n\n{\n\"classname\" \"worldspawn\"\n}\n"), Some(Kind::Map));
+        assert_eq!(kind_of(none, b"# exported\nv 0 0 0\n"), Some(Kind::Obj));
+        assert_eq!(kind_of(none, b"hello world\n"), None);
+        assert_eq!(kind_of(none, b"ab"), None);
+    }
+
+    #[test]
+    fn text_report_lists_counts() {
+        let report = InfoReport {
+            file: "x.obj".into(),
+            details: Details::Obj {
+                vertices: 3,
+                triangles: 1,
+                bounds: Some(Bounds { mins: [0.0; 3], maxs: [1.0, 2.0, 3.0] }),
+            },
+        };
+        assert_eq!(
+            report.to_text(),
+            "file: x.obj\nkind: obj\nvertices: 3\ntriangles: 1\nbounds: (0 0 0) to (1 2 3)\n"
+        );
+        let json = serde_json::to_value(&report).expect("serializes");
+        assert_eq!(json["kind"], "obj");
+        assert_eq!(json["bounds"]["maxs"][2], 3.0);
+    }
+}

@@ -2,23 +2,30 @@
 //!
 //! Exactly one mode: `--view` (first person, with `--look`), `--plan` (top-down, with `--from`),
 //! `--leak` (the plan with a pointfile's path) or `--pvs-matrix`.
+//!
+//! Besides `.bsp` and `.slvl`, the input may be a `.map`: it is compiled here without vis (leaks
+//! allowed), so a leaking map can be drawn with the leak path its compile found (`--leak` without
+//! a file). Pictures of a `.map` have no PVS (everything visible).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use glam::DVec3;
 
+use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
+use sightline_formats::Level;
+
 use crate::cli::Outcome;
 use crate::render::plan::{PlanOptions, render_plan};
 use crate::render::view::{Camera, render_view};
 use crate::render::{matrix, read_pointfile};
 use crate::validate::bsp::BspTree;
-use crate::validate::{load, pvs};
+use crate::validate::{self, Options, OracleChoice, load, pvs};
 
 /// Arguments of `sightline render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A Quake `.bsp` or a Sightline `.slvl`.
+    /// A Quake `.bsp`, a Sightline `.slvl`, or a `.map` (compiled without vis).
     pub input: PathBuf,
     /// Output PNG.
     #[arg(short, long)]
@@ -44,23 +51,46 @@ pub struct Args {
     /// Eye position `x,y,z` of a plan.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub from: Option<String>,
-    /// The slab `z0..z1` of a plan (default: 64 units below to 64 above the eye).
+    /// The slab `z0..z1` of a plan (default: 64 units below to 64 above the eye; for a leak
+    /// without an eye, 8 units either side of the leak's start).
     #[arg(long, value_name = "Z0..Z1", allow_hyphen_values = true)]
     pub z: Option<String>,
     /// A `.prt` file whose portals a plan draws (the level's own portals are always drawn).
     #[arg(long)]
     pub prt: Option<PathBuf>,
-    /// A plan with the leak path of this pointfile (`.pts`) drawn from entity to void.
-    #[arg(long, value_name = "MAP.PTS")]
-    pub leak: Option<PathBuf>,
+    /// A plan with the leak path of this pointfile (`.pts`) drawn from entity to void; without a
+    /// file (for a `.map` input) the path the compile found.
+    #[arg(long, value_name = "MAP.PTS", num_args = 0..=1, default_missing_value = "")]
+    pub leak: Option<String>,
     /// The cluster-by-cluster PVS matrix.
     #[arg(long)]
     pub pvs_matrix: bool,
+    /// With `--pvs-matrix`: sample this many rays (tree oracle, as `validate`) and colour the
+    /// pairs they prove green, the other PVS pairs grey and sampled pairs missing from the PVS red.
+    #[arg(long)]
+    pub rays: Option<u64>,
+}
+
+/// Load a level; a `.map` is compiled without vis (leaks allowed) and also yields its leak path.
+fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>)> {
+    let is_map = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("map"));
+    if !is_map {
+        return Ok((load::load_level(path)?, None));
+    }
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
+    let map = sightline_formats::map::parse(&text, &name)?;
+    let opts = CompileOptions { allow_leak: true, ..CompileOptions::default() };
+    let compiled = compile(&Source::Map { map, file: name }, &opts, &NoProgress)?;
+    Ok((compiled.level, compiled.leak.map(|l| l.path)))
 }
 
 /// Parse `x,y,z`.
 fn vec3(s: &str, what: &str) -> anyhow::Result<DVec3> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>()
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
         .with_context(|| format!("{what} `{s}`: expected x,y,z"))?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
@@ -95,11 +125,12 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if modes.iter().filter(|&&m| m).count() != 1 {
         bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
     }
-    let level = load::load_level(&args.input)?;
+    let (level, compiled_leak) = load_any(&args.input)?;
     let tree = BspTree::new(&level)?;
     let pvs = pvs::level_pvs(&level)?;
     let (w, h) = size(&args.size)?;
-    let (yaw, pitch) = args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
+    let (yaw, pitch) =
+        args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
     let mut outcome = Outcome::Clean;
     let image = if let Some(eye) = &args.view {
         let camera = Camera { eye: vec3(eye, "--view")?, yaw, pitch, fov: args.fov, width: w, height: h };
@@ -116,13 +147,32 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }
         v.image
     } else if args.pvs_matrix {
-        matrix::render_matrix(&pvs, None, w.max(h).min(2048))
+        let sampled = match args.rays {
+            Some(rays) => {
+                let opts = Options { rays, oracle: OracleChoice::Tree, quiet: false, ..Options::default() };
+                let mut v = validate::validate(&level, &pvs, &opts)?;
+                let misses = v.report.misses();
+                println!(
+                    "{} pairs proved by {rays} rays, {misses} misses",
+                    v.report.oracles[0].sampled_pairs
+                );
+                if misses > 0 {
+                    outcome = Outcome::Finding;
+                }
+                v.sampled.pop().and_then(|mut steps| steps.pop())
+            }
+            None => None,
+        };
+        matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(2048))
     } else {
         let from = args.from.as_deref().map(|s| vec3(s, "--from")).transpose()?;
         let leak = match &args.leak {
+            Some(p) if p.is_empty() => {
+                compiled_leak.context("--leak without a file needs a leaking .map as input")?
+            }
             Some(p) => {
-                let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-                read_pointfile(&text, &p.display().to_string())?
+                let text = std::fs::read_to_string(p).with_context(|| format!("reading {p}"))?;
+                read_pointfile(&text, p)?
             }
             None => Vec::new(),
         };
@@ -130,6 +180,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let z = match &args.z {
             Some(s) => pair(s, "..", "--z")?,
             None if from.is_none() && leak.is_empty() => (-1e5, 1e5),
+            // A leaking level has open void around it: a thin slab keeps its walls visible.
+            None if from.is_none() => (centre_z - 8.0, centre_z + 8.0),
             None => (centre_z - 64.0, centre_z + 64.0),
         };
         let mut portals: Vec<Vec<DVec3>> = level

@@ -1,14 +1,15 @@
 //! `sightline validate`: prove a PVS conservative by ray sampling and measure how tight it is.
 
 use crate::cli::Outcome;
-use crate::validate::{self, DEFAULT_OFFSET, DEFAULT_RAYS, OracleChoice, Options, load, pvs};
+use crate::validate::{self, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
 
 /// Arguments of `sightline validate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// A Quake `.bsp` with visdata, or a Sightline `.slvl`.
     pub input: std::path::PathBuf,
-    /// Ray budget per oracle, spread evenly over the open leaves (5 rays per bundle).
+    /// Ray budget per oracle, spread evenly over the open leaves (10 rays per bundle: 5 lines
+    /// cast both ways).
     #[arg(long, default_value_t = DEFAULT_RAYS)]
     pub rays: u64,
     /// Seed of the random streams (results are identical for any thread count).
@@ -17,8 +18,8 @@ pub struct Args {
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Bundle offset in world units: each bundle is a centre ray and four rays this far from it,
-    /// and a leaf counts only when all five reach it. 0 casts single rays (reports crack noise).
+    /// Bundle offset in world units: each bundle is a centre line and four lines this far from it,
+    /// and a leaf counts only when all five reach it. 0 casts single lines (reports crack noise).
     #[arg(long, default_value_t = DEFAULT_OFFSET)]
     pub offset: f64,
     /// Which oracle to sample against: the BSP tree, the face mesh (BVH), or both.
@@ -39,7 +40,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         eprintln!("note: {} has no PVS (everything visible): nothing can be missed", args.input.display());
     }
     let pvs = pvs::level_pvs(&level)?;
-    let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: args.oracle, quiet: args.json };
+    let opts = Options {
+        rays: args.rays,
+        seed: args.seed,
+        offset: args.offset,
+        oracle: args.oracle,
+        quiet: args.json,
+    };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
     let mut v = pool.install(|| validate::validate(&level, &pvs, &opts))?;
     v.report.input = args.input.display().to_string();

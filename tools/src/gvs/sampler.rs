@@ -324,24 +324,37 @@ impl<'a> Gvs<'a> {
         }
     }
 
-    /// Silhouette re-seeding (this project's extension): outline points whose ray escaped or hit
-    /// much farther than aimed lie past a silhouette of the seed's surface; what hides behind that
-    /// silhouette is seen from the cell corner furthest out in that direction. Cast from that corner
-    /// at the triangle's centre and, when it hits the triangle, queue it as a seed from there, so
-    /// ABS runs again from the new origin. Each (triangle, corner) pair is tried once.
+    /// Corner re-seeding (this project's extension, "sil"): an outline point whose ray escaped or
+    /// hit much farther than aimed lies past a silhouette of the seed's surface, and one whose ray
+    /// hit much nearer lies behind an occluder. What hides there is best seen from the cell corner
+    /// furthest out past the silhouette (or away from the occluder). From that corner, cast at the
+    /// triangle's centre (when it hits the triangle, queue it as a seed from there, so ABS runs
+    /// again from the new origin) and at the outline point. Each (triangle, corner) pair is tried
+    /// once.
     fn reseed_silhouette(&mut self, seed: Seed, tri: &[Vec3; 3], pts: &[Vec3; 9], samples: &[Sample; 9]) {
         let o = seed.origin;
         let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
         let view = centre - o;
         let mut corners = 0u8;
+        let mut aim = [Vec3::ZERO; 8];
         for (p, s) in pts.iter().zip(samples) {
             let aimed = (*p - o).length();
-            let far = s.tri == NONE || (s.pos - o).length() > aimed * (1.0 + self.p.disc);
-            if !far {
+            let dist = (s.pos - o).length();
+            let out = if s.tri == NONE || dist > aimed * (1.0 + self.p.disc) {
+                // Past a silhouette of the seed's surface: move out past it.
+                (*p - centre).reject_from(view)
+            } else if dist < aimed * (1.0 - self.p.disc)
+                && let Some(near) = self.tris.get(s.tri as usize)
+            {
+                // Behind an occluder: move away from the occluder to look around it.
+                (*p - (near[0] + near[1] + near[2]) / 3.0).reject_from(view)
+            } else {
                 continue;
-            }
-            let out = (*p - centre).reject_from(view);
+            };
             let k = u8::from(out.x > 0.0) | u8::from(out.y > 0.0) << 1 | u8::from(out.z > 0.0) << 2;
+            if corners & (1 << k) == 0 {
+                aim[k as usize] = *p;
+            }
             corners |= 1 << k;
         }
         let Some(tried) = self.tried.get_mut(seed.tri as usize) else {
@@ -364,6 +377,9 @@ impl<'a> Gvs<'a> {
             } else if s.tri != NONE && self.insert(s.tri, corner, s.pos) {
                 self.queue.push_back(Seed { origin: corner, tri: s.tri, hit: s.pos });
             }
+            // And at the outline point that was hidden or past the silhouette from `o`.
+            let p = aim[k as usize];
+            self.handle(corner, p - corner, Class::Silhouette);
         }
     }
 

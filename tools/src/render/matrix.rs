@@ -17,7 +17,11 @@ pub fn render_matrix(pvs: &BitMatrix, sampled: Option<&BitMatrix>, max_size: u32
     let n = pvs.len().max(1);
     let max_size = max_size.max(1) as usize;
     // Whole pixels per cluster when the matrix is small, whole clusters per pixel when it is big.
-    let (size, per_px) = if n <= max_size { ((max_size / n) * n, 1) } else { (n.div_ceil(n.div_ceil(max_size)), n.div_ceil(max_size)) };
+    let (size, per_px) = if n <= max_size {
+        ((max_size / n) * n, 1)
+    } else {
+        (n.div_ceil(n.div_ceil(max_size)), n.div_ceil(max_size))
+    };
     let px_per = (size / n).max(1);
     let mut img = Image::new(size as u32, size as u32, [0, 0, 0]);
     for py in 0..size / px_per {

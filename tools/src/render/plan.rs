@@ -188,7 +188,8 @@ pub fn render_plan(tree: &BspTree<'_>, pvs: Option<&BitMatrix>, opts: &PlanOptio
         }
     }
     for w in &opts.portals {
-        let (pmin, pmax) = w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.z), b.max(p.z)));
+        let (pmin, pmax) =
+            w.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.z), b.max(p.z)));
         if pmin > z1 || pmax < z0 {
             continue;
         }
@@ -260,7 +261,13 @@ mod tests {
         }
         let eye = DVec3::new(10.0, 0.0, 32.0);
         let cam = Camera { eye, yaw: 0.0, pitch: 0.0, fov: 90.0, width: 4, height: 3 };
-        let opts = PlanOptions { from: Some(eye), z: (0.0, 64.0), camera: Some(cam), width: 200, ..Default::default() };
+        let opts = PlanOptions {
+            from: Some(eye),
+            z: (0.0, 64.0),
+            camera: Some(cam),
+            width: 200,
+            ..Default::default()
+        };
         let plan = render_plan(&tree, Some(&pvs), &opts).unwrap();
         assert_eq!(plan.pvs_leaves, vec![2]);
         assert_eq!(plan.frustum_leaves, vec![2]);

@@ -104,10 +104,12 @@ pub fn render_view(tree: &BspTree<'_>, camera: &Camera, pvs: Option<&BitMatrix>)
                     let Some(hit) = hit else { return ([0, 0, 0], None) };
                     let Some(last) = out.last() else { return ([0, 0, 0], None) };
                     let k = 0.45 + 0.55 * hit.normal.dot(LIGHT.normalize()).max(0.0);
-                    let sky = level.leaves.get(hit.leaf as usize).is_some_and(|l| l.contents == Contents::Sky);
+                    let sky =
+                        level.leaves.get(hit.leaf as usize).is_some_and(|l| l.contents == Contents::Sky);
                     let base = if sky { SKY } else { leaf_colour(last.leaf) };
                     let outside = pvs.is_some_and(|m| {
-                        tree.cluster(last.leaf as usize).is_some_and(|c| !m.get(eye_cluster as usize, c as usize))
+                        tree.cluster(last.leaf as usize)
+                            .is_some_and(|c| !m.get(eye_cluster as usize, c as usize))
                     });
                     (if outside { ALARM_RED } else { shade(base, k) }, Some(last.leaf))
                 })
@@ -125,7 +127,14 @@ pub fn render_view(tree: &BspTree<'_>, camera: &Camera, pvs: Option<&BitMatrix>)
         }
     }
     let red_pixels = if pvs.is_some() { image.count(ALARM_RED) } else { 0 };
-    Ok(View { image, eye_leaf: eye_leaf as u32, eye_cluster, red_pixels, leaves_shown: shown.into_iter().collect(), pixel_leaves })
+    Ok(View {
+        image,
+        eye_leaf: eye_leaf as u32,
+        eye_cluster,
+        red_pixels,
+        leaves_shown: shown.into_iter().collect(),
+        pixel_leaves,
+    })
 }
 
 /// Largest extent of the open leaves' bounds.
@@ -160,7 +169,14 @@ mod tests {
     fn corridor_view_shows_both_cells_and_red_only_when_missing() {
         let level = corridor();
         let tree = BspTree::new(&level).unwrap();
-        let cam = Camera { eye: DVec3::new(4.0, 0.0, 32.0), yaw: 0.0, pitch: 0.0, fov: 90.0, width: 64, height: 48 };
+        let cam = Camera {
+            eye: DVec3::new(4.0, 0.0, 32.0),
+            yaw: 0.0,
+            pitch: 0.0,
+            fov: 90.0,
+            width: 64,
+            height: 48,
+        };
         let mut pvs = BitMatrix::new(3);
         for (a, b) in [(0, 0), (0, 1), (1, 0), (1, 1), (2, 2)] {
             pvs.set(a, b);

@@ -215,8 +215,11 @@ impl<'a> BspTree<'a> {
                     continue;
                 }
                 let tm = (da / (da - db)).clamp(t0, t1);
-                let (near, far, far_normal) =
-                    if d0 >= 0.0 { (node.children[0], node.children[1], n) } else { (node.children[1], node.children[0], -n) };
+                let (near, far, far_normal) = if d0 >= 0.0 {
+                    (node.children[0], node.children[1], n)
+                } else {
+                    (node.children[1], node.children[0], -n)
+                };
                 stack.push((far, tm, t1, far_normal));
                 c = near;
                 t1 = tm;
@@ -250,7 +253,8 @@ pub(crate) mod tests {
             LevelPlane { normal: [0.0, 0.0, 1.0], dist: 64.0 },
             LevelPlane { normal: [0.0, 0.0, 1.0], dist: 0.0 },
         ];
-        let open = |cluster, x0: f32, x1: f32| leaf(Contents::Empty, cluster, [x0, -32.0, 0.0], [x1, 32.0, 64.0]);
+        let open =
+            |cluster, x0: f32, x1: f32| leaf(Contents::Empty, cluster, [x0, -32.0, 0.0], [x1, 32.0, 64.0]);
         let leaves = vec![
             leaf(Contents::Solid, -1, [-1e4; 3], [1e4; 3]),
             open(0, 0.0, 64.0),
@@ -271,7 +275,13 @@ pub(crate) mod tests {
             Node { plane: 1, children: [-3, -2], mins: [-1e4; 3], maxs: [1e4; 3] },
             Node { plane: 3, children: [-4, -1], mins: [-1e4; 3], maxs: [1e4; 3] },
         ];
-        let models = vec![Model { head_node: 0, mins: [0.0; 3], maxs: [200.0, 32.0, 64.0], first_face: 0, num_faces: 0 }];
+        let models = vec![Model {
+            head_node: 0,
+            mins: [0.0; 3],
+            maxs: [200.0, 32.0, 64.0],
+            first_face: 0,
+            num_faces: 0,
+        }];
         Level { planes, nodes, leaves, models, num_clusters: 3, ..Level::default() }
     }
 
@@ -304,7 +314,12 @@ pub(crate) mod tests {
         assert_eq!(hit.unwrap().normal, DVec3::new(1.0, 0.0, 0.0));
         // Through solid, the wall is listed and the cell beyond it too.
         out.clear();
-        let hit = tree.trace_through(DVec3::new(10.0, 0.0, 10.0), DVec3::new(190.0, 0.0, 10.0), &mut out, &mut stack);
+        let hit = tree.trace_through(
+            DVec3::new(10.0, 0.0, 10.0),
+            DVec3::new(190.0, 0.0, 10.0),
+            &mut out,
+            &mut stack,
+        );
         assert_eq!(out.iter().map(|c| c.leaf).collect::<Vec<_>>(), vec![1, 2, 0, 3]);
         assert_eq!(hit.unwrap().leaf, 0);
     }

@@ -99,7 +99,8 @@ impl<'a> MeshOracle<'a> {
 fn open_on_both_sides(tree: &BspTree<'_>, plane: u32, corners: &[[f32; 3]]) -> bool {
     let Some(p) = tree.level().planes.get(plane as usize) else { return false };
     let n = DVec3::from(p.normal.map(f64::from));
-    let centre = corners.iter().map(|c| DVec3::from(c.map(f64::from))).sum::<DVec3>() / corners.len().max(1) as f64;
+    let centre =
+        corners.iter().map(|c| DVec3::from(c.map(f64::from))).sum::<DVec3>() / corners.len().max(1) as f64;
     tree.is_open(tree.leaf_at(centre + n * FACE_PROBE)) && tree.is_open(tree.leaf_at(centre - n * FACE_PROBE))
 }
 

@@ -38,7 +38,7 @@ use self::pvs::BitMatrix;
 use self::report::{OracleReport, Report};
 use self::sample::{LeafSampler, Miss, RayOracle, SampleParams, Scratch, TreeOracle};
 
-/// Default bundle offset in world units: 5 rays per bundle, a plus sign 0.5 units wide.
+/// Default bundle offset in world units: 5 lines per bundle, a plus sign 0.5 units wide.
 pub const DEFAULT_OFFSET: f64 = 0.25;
 /// Default ray budget per oracle (both oracles on E1M1 well under a minute on 2 cores).
 pub const DEFAULT_RAYS: u64 = 8_000_000;
@@ -64,7 +64,7 @@ pub enum OracleChoice {
 /// Validation settings.
 #[derive(Debug, Clone, Copy)]
 pub struct Options {
-    /// Total ray budget per oracle (each bundle is 5 rays, or 1 with offset 0).
+    /// Total ray budget per oracle (each bundle is 5 lines of 2 rays, or 1 line with offset 0).
     pub rays: u64,
     /// Seed of every random stream.
     pub seed: u64,
@@ -96,8 +96,9 @@ pub fn validate(level: &Level, pvs: &BitMatrix, opts: &Options) -> anyhow::Resul
         anyhow::bail!("PVS has {} clusters, the level {}", pvs.len(), level.num_clusters);
     }
     let samplers = leaf_samplers(&tree);
-    let rays_per_bundle = if opts.offset > 0.0 { 5 } else { 1 };
-    let bundles = (opts.rays / (rays_per_bundle * samplers.len().max(1) as u64)).clamp(1, u64::from(u32::MAX)) as u32;
+    let rays_per_bundle = u64::from(sample::rays_per_bundle(opts.offset));
+    let bundles =
+        (opts.rays / (rays_per_bundle * samplers.len().max(1) as u64)).clamp(1, u64::from(u32::MAX)) as u32;
     let length = world_length(level);
     let params = SampleParams { seed: opts.seed, offset: opts.offset };
     let open_leaves = level.leaves.iter().filter(|l| bsp::sight_passes(l.contents)).count();

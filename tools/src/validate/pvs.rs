@@ -98,8 +98,12 @@ pub fn level_pvs(level: &Level) -> anyhow::Result<BitMatrix> {
     }
     let row_bytes = level.row_bytes();
     for (a, &off) in level.pvs_offsets.iter().enumerate() {
-        let data = level.pvs_data.get(off as usize..).with_context(|| format!("cluster {a}: PVS offset {off} is past the data"))?;
-        let row = rle::decode_row_vec(data, row_bytes).with_context(|| format!("cluster {a}: PVS row at byte {off}"))?;
+        let data = level
+            .pvs_data
+            .get(off as usize..)
+            .with_context(|| format!("cluster {a}: PVS offset {off} is past the data"))?;
+        let row = rle::decode_row_vec(data, row_bytes)
+            .with_context(|| format!("cluster {a}: PVS row at byte {off}"))?;
         for b in 0..n {
             if row[b >> 3] >> (b & 7) & 1 == 1 {
                 m.set(a, b);

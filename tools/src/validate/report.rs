@@ -10,7 +10,7 @@ use sightline_formats::Level;
 
 use super::pvs::BitMatrix;
 use super::sample::Miss;
-use super::{OracleChoice, Options};
+use super::{Options, OracleChoice};
 
 /// Pairs found after part of the budget.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -83,7 +83,7 @@ pub struct Report {
     pub clusters: u32,
     /// Bundles per sampled leaf.
     pub bundles_per_leaf: u32,
-    /// Rays per bundle.
+    /// Rays per bundle (two per line: forward and backward).
     pub rays_per_bundle: u32,
     /// Bundle offset in world units.
     pub bundle_offset: f64,
@@ -103,7 +103,14 @@ pub struct Report {
 
 impl Report {
     /// The header of a report; oracles are added as they finish.
-    pub fn new(level: &Level, open_leaves: usize, sampled_leaves: usize, bundles: u32, opts: &Options, pvs: &BitMatrix) -> Self {
+    pub fn new(
+        level: &Level,
+        open_leaves: usize,
+        sampled_leaves: usize,
+        bundles: u32,
+        opts: &Options,
+        pvs: &BitMatrix,
+    ) -> Self {
         Self {
             input: String::new(),
             leaves: level.leaves.len(),
@@ -111,7 +118,7 @@ impl Report {
             sampled_leaves,
             clusters: level.num_clusters,
             bundles_per_leaf: bundles,
-            rays_per_bundle: if opts.offset > 0.0 { 5 } else { 1 },
+            rays_per_bundle: super::sample::rays_per_bundle(opts.offset),
             bundle_offset: opts.offset,
             seed: opts.seed,
             threads: rayon::current_num_threads(),
@@ -133,7 +140,12 @@ impl Report {
         let _ = writeln!(
             s,
             "{}: {} leaves ({} open, {} sampled), {} clusters, PVS {} pairs",
-            self.input, self.leaves, self.open_leaves, self.sampled_leaves, self.clusters, self.pvs_pairs
+            if self.input.is_empty() { "level" } else { &self.input },
+            self.leaves,
+            self.open_leaves,
+            self.sampled_leaves,
+            self.clusters,
+            self.pvs_pairs
         );
         let _ = writeln!(
             s,

@@ -1,12 +1,15 @@
-//! Bundle sampling: from points inside every open leaf, cast bundles of parallel rays in uniform
-//! directions and record, for every bundle, the clusters that **all** of its rays reach.
+//! Bundle sampling: from points inside every open leaf, cast bundles of parallel lines in uniform
+//! directions and record, for every bundle, the clusters that **all** of its lines reach.
 //!
-//! A bundle is the centre ray plus, when the offset `w` is positive, four rays displaced by `w`
-//! along `±u` and `±v`, two unit vectors perpendicular to the direction (a plus sign `2w` wide).
-//! A single ray can slip between two solid leaves that meet along an edge and report a leaf that
-//! no finite pencil of sight reaches; a leaf that five rays spread over `2w` units all reach is
-//! really seen. All leaves the bundle agrees on lie on the centre ray, which is a line of sight,
-//! so every pair among them (in both orders, and each with itself) is a visible pair.
+//! A line is two rays from the same origin, along `d` and `-d`: the open stretch through the
+//! origin between the first blockers on either side. A bundle is the centre line plus, when the
+//! offset `w` is positive, four lines displaced by `w` along `±u` and `±v`, two unit vectors
+//! perpendicular to the direction (a plus sign `2w` wide). A single line can slip between two
+//! solid leaves that meet along an edge and report a leaf that no finite pencil of sight reaches;
+//! a leaf that five lines spread over `2w` units all reach is really seen. All leaves the bundle
+//! agrees on lie on the centre line, which is a line of sight, so every pair among them (in both
+//! orders, and each with itself) is a visible pair. Casting whole lines rather than rays from the
+//! origin roughly doubles the pairs found per ray on E1M1.
 //!
 //! Randomness comes from `(seed, leaf, bundle index)` only, each leaf keeps its own sampling point,
 //! and the sampled matrix is an OR of bits: the result is the same for any thread count.
@@ -112,6 +115,11 @@ pub struct BatchResult {
     pub misses: BTreeMap<(u32, u32), Miss>,
 }
 
+/// Rays cast per bundle: 5 lines (1 with offset 0), each cast both ways.
+pub fn rays_per_bundle(offset: f64) -> u32 {
+    if offset > 0.0 { 10 } else { 2 }
+}
+
 /// Two unit vectors perpendicular to `d` and to each other.
 fn basis(d: DVec3) -> (DVec3, DVec3) {
     let helper = if d.x.abs() < 0.6 { DVec3::X } else { DVec3::Y };
@@ -155,9 +163,15 @@ pub fn run_batch<O: RayOracle>(
         let generation = s.generation;
         s.centre.clear();
         for (i, &o) in origins.iter().enumerate() {
+            // The whole line through the origin: forward, then backward with negated parameters.
             s.crossings.clear();
             oracle.cast(o, dir, &mut s.oracle, &mut s.crossings);
-            result.rays += 1;
+            let forward = s.crossings.len();
+            oracle.cast(o, -dir, &mut s.oracle, &mut s.crossings);
+            for c in &mut s.crossings[forward..] {
+                (c.t0, c.t1) = (-c.t1, -c.t0);
+            }
+            result.rays += 2;
             for c in &s.crossings {
                 let l = c.leaf as usize;
                 if s.stamp[l] != generation {
@@ -239,12 +253,16 @@ mod tests {
         let mut misses = BTreeMap::new();
         for leaf in 1..4u32 {
             let l = &level.leaves[leaf as usize];
-            let cell = Cell::new(halves[leaf as usize].clone().unwrap(), DVec3::from(l.mins.map(f64::from)), DVec3::from(l.maxs.map(f64::from)));
+            let cell = Cell::new(
+                halves[leaf as usize].clone().unwrap(),
+                DVec3::from(l.mins.map(f64::from)),
+                DVec3::from(l.maxs.map(f64::from)),
+            );
             let point = cell.interior_point(DVec3::from(l.mins.map(f64::from))).unwrap();
             let mut sampler = LeafSampler { leaf, cell, point };
             let params = SampleParams { seed: 5, offset: 0.25 };
             let r = run_batch(&oracle, &tree, &mut sampler, 0, 200, params, &pvs, &sampled, &mut scratch);
-            assert_eq!(r.rays, 1000);
+            assert_eq!(r.rays, 2000);
             misses.extend(r.misses);
         }
         let s = sampled.snapshot();

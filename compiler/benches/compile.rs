@@ -1,0 +1,49 @@
+//! Compile time of id's E1M1 (and DM1, LibreQuake lq_e1m1) from parsed `.map` to level and portals,
+//! without vis (vis has its own benchmarks). Parsing is outside the measured loop. Real maps come
+//! from `$SIGHTLINE_MAPS` (default `../shared/maps`); without them nothing is measured.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
+
+fn maps() -> Option<PathBuf> {
+    let dir = std::env::var_os("SIGHTLINE_MAPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"));
+    dir.is_dir().then_some(dir)
+}
+
+fn bench_compile(c: &mut Criterion) {
+    let Some(dir) = maps() else {
+        eprintln!("note: real maps not found (set SIGHTLINE_MAPS); compile benchmarks skipped");
+        return;
+    };
+    let mut g = c.benchmark_group("compile");
+    g.sample_size(10);
+    for name in ["id/e1m1.map", "id/dm1.map", "librequake/lq_e1m1.map"] {
+        let Ok(text) = std::fs::read_to_string(dir.join(name)) else {
+            eprintln!("note: {name} absent; skipped");
+            continue;
+        };
+        let map = match sightline_formats::map::parse(&text, name) {
+            Ok(m) => m,
+            Err(e) => {
+                eprintln!("note: {e}; skipped");
+                continue;
+            }
+        };
+        let source = Source::Map { map, file: name.to_string() };
+        for threads in [1, 2] {
+            let opts = CompileOptions { threads: Some(threads), ..CompileOptions::default() };
+            g.bench_function(format!("{name} no-vis threads={threads}"), |b| {
+                b.iter(|| compile(black_box(&source), &opts, &NoProgress).map(|c| c.stats.portals))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_compile);
+criterion_main!(benches);

@@ -1,0 +1,197 @@
+//! `sightline compile` end to end: the leaking map, bad input, JSON, determinism across threads.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use sightline::cli::Outcome;
+use sightline::cmd::compile::{Args, run};
+use sightline_compiler::{CompileError, CompileOptions, NoProgress, Source, compile};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sightline-compile-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn args(input: &Path, output: &Path) -> Args {
+    Args {
+        input: input.to_path_buf(),
+        output: Some(output.to_path_buf()),
+        threads: None,
+        no_vis: true,
+        allow_leak: false,
+        json: true,
+    }
+}
+
+fn write_map(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write map");
+    path
+}
+
+/// One axial box brush side list in Standard syntax.
+fn box_brush(lo: [i64; 3], hi: [i64; 3]) -> String {
+    let [x0, y0, z0] = lo;
+    let [x1, y1, z1] = hi;
+    format!(
+        "{{\n( {x0} {y0} {z0} ) ( {x0} {y1} {z0} ) ( {x0} {y0} {z1} ) wall 0 0 0 1 1\n\
+         ( {x1} {y0} {z0} ) ( {x1} {y0} {z1} ) ( {x1} {y1} {z0} ) wall 0 0 0 1 1\n\
+         ( {x0} {y0} {z0} ) ( {x0} {y0} {z1} ) ( {x1} {y0} {z0} ) wall 0 0 0 1 1\n\
+         ( {x0} {y1} {z0} ) ( {x1} {y1} {z0} ) ( {x0} {y1} {z1} ) wall 0 0 0 1 1\n\
+         ( {x0} {y0} {z0} ) ( {x1} {y0} {z0} ) ( {x0} {y1} {z0} ) wall 0 0 0 1 1\n\
+         ( {x0} {y0} {z1} ) ( {x0} {y1} {z1} ) ( {x1} {y0} {z1} ) wall 0 0 0 1 1\n}}\n"
+    )
+}
+
+#[test]
+fn leaking_map_reports_the_entity_writes_a_pointfile_to_the_void_and_exits_1() {
+    let dir = temp_dir("leak");
+    let input = sightline_tests::bundled_maps().join("leak.map");
+    let out = dir.join("leak.slvl");
+    let outcome = run(&args(&input, &out)).expect("a leak is a finding, not an error");
+    assert_eq!(outcome, Outcome::Finding);
+    assert!(!out.exists(), "no level is written for a leaking map");
+    let pts = std::fs::read_to_string(dir.join("leak.pts")).expect("pointfile written");
+    let points: Vec<DVec3> = pts
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().expect("number")).collect();
+            assert_eq!(v.len(), 3, "pointfile line `{l}`");
+            DVec3::new(v[0], v[1], v[2])
+        })
+        .collect();
+    assert!(points.len() >= 2);
+    assert!(points.windows(2).all(|w| w[0].distance(w[1]) <= 8.0 + 1e-6), "points every 8 units");
+
+    let text = std::fs::read_to_string(&input).expect("map");
+    let map = sightline_formats::map::parse(&text, "leak.map").expect("parses");
+    let start = map.entities.iter().find(|e| e.classname() == "info_player_start").expect("start").clone();
+    assert_eq!(points[0], start.origin().expect("origin"), "the path starts at the entity");
+    let world = sightline_formats::Aabb::from_points(
+        map.entities.iter().flat_map(|e| &e.brushes).flat_map(|b| &b.sides).flat_map(|s| s.points),
+    );
+    let last = *points.last().expect("points");
+    assert!(!world.contains_point(last, 0.0), "the path ends outside the world: {last}");
+
+    // The library names the entity and its line.
+    let err = compile(&Source::Map { map, file: "leak.map".into() }, &CompileOptions::default(), &NoProgress)
+        .expect_err("leaks");
+    let CompileError::Leak(report) = &err else { panic!("expected a leak, got {err}") };
+    assert_eq!(report.classname, "info_player_start");
+    assert_eq!(report.line, start.line);
+    assert!(err.to_string().contains("leak.map:"), "{err}");
+}
+
+#[test]
+fn allow_leak_writes_the_level_without_portal_file_and_still_exits_1() {
+    let dir = temp_dir("allow");
+    let out = dir.join("leak.slvl");
+    let mut a = args(&sightline_tests::bundled_maps().join("leak.map"), &out);
+    a.allow_leak = true;
+    assert_eq!(run(&a).expect("runs"), Outcome::Finding);
+    assert!(out.exists());
+    assert!(dir.join("leak.pts").exists());
+    assert!(!dir.join("leak.prt").exists());
+}
+
+#[test]
+fn bad_inputs_are_clear_errors() {
+    let dir = temp_dir("bad");
+    let run_err = |name: &str, text: &str| {
+        let input = write_map(&dir, name, text);
+        let err = run(&args(&input, &dir.join("out.slvl"))).expect_err("must fail (exit 2)");
+        format!("{err:#}")
+    };
+    let broken =
+        run_err("broken.map", "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 1 0 0 ) wall\n}\n}\n");
+    assert!(broken.contains("broken.map:"), "{broken}");
+    let none = run_err("empty.map", "// nothing here\n");
+    assert!(none.contains("empty.map"), "{none}");
+    let huge = run_err(
+        "huge.map",
+        &format!("{{\n\"classname\" \"worldspawn\"\n{}}}\n", box_brush([0, 0, 0], [5_000_000, 64, 64])),
+    );
+    assert!(huge.contains("huge.map:"), "{huge}");
+    // Six planes whose half-spaces do not meet: x < 0 and x > 64.
+    let degenerate = "{\n\"classname\" \"worldspawn\"\n{\n\
+        ( 0 0 0 ) ( 0 0 1 ) ( 0 1 0 ) wall 0 0 0 1 1\n\
+        ( 64 0 0 ) ( 64 1 0 ) ( 64 0 1 ) wall 0 0 0 1 1\n\
+        ( 0 0 0 ) ( 0 0 1 ) ( 1 0 0 ) wall 0 0 0 1 1\n\
+        ( 0 64 0 ) ( 1 64 0 ) ( 0 64 1 ) wall 0 0 0 1 1\n\
+        ( 0 0 0 ) ( 1 0 0 ) ( 0 1 0 ) wall 0 0 0 1 1\n\
+        ( 0 0 64 ) ( 0 1 64 ) ( 1 0 64 ) wall 0 0 0 1 1\n}\n}\n";
+    let msg = run_err("degenerate.map", degenerate);
+    assert!(msg.contains("degenerate.map:3:") && msg.contains("brush 0"), "{msg}");
+    assert!(msg.contains("degenerate"), "{msg}");
+}
+
+#[test]
+fn library_rejects_maps_without_entities_and_huge_origins() {
+    let empty = sightline_formats::map::MapFile {
+        entities: Vec::new(),
+        format: sightline_formats::map::MapFormat::Standard,
+    };
+    let err =
+        compile(&Source::Map { map: empty, file: "x.map".into() }, &CompileOptions::default(), &NoProgress)
+            .expect_err("no entities");
+    assert!(matches!(err, CompileError::NoEntities { .. }), "{err}");
+
+    let text = format!(
+        "{{\n\"classname\" \"worldspawn\"\n{}}}\n{{\n\"classname\" \"light\"\n\"origin\" \"9000000 0 0\"\n}}\n",
+        box_brush([0, 0, 0], [64, 64, 64])
+    );
+    let map = sightline_formats::map::parse(&text, "o.map").expect("parses");
+    let err = compile(&Source::Map { map, file: "o.map".into() }, &CompileOptions::default(), &NoProgress)
+        .expect_err("huge origin");
+    assert!(matches!(err, CompileError::HugeCoordinate { line: 12, .. }), "{err}");
+}
+
+#[test]
+fn output_is_identical_for_any_thread_count_and_prt_reads_back() {
+    let dir = temp_dir("threads");
+    for name in ["two_rooms.map", "angled.map", "detail_water.map", "scene.obj"] {
+        let input = sightline_tests::bundled_maps().join(name);
+        let mut bytes = Vec::new();
+        for threads in [1, 2] {
+            let out = dir.join(format!("{name}-{threads}.slvl"));
+            let mut a = args(&input, &out);
+            a.threads = Some(threads);
+            a.no_vis = false;
+            assert_eq!(run(&a).expect("compiles"), Outcome::Clean, "{name}");
+            let prt_text = std::fs::read_to_string(out.with_extension("prt")).expect("prt");
+            let prt = sightline_formats::prt::read(&prt_text, name).expect("our .prt reads back");
+            for p in &prt.portals {
+                assert!(p.leaves.iter().all(|&l| l < prt.num_clusters));
+                assert!(p.winding.is_valid(0.05), "{name}: portal winding not convex and planar");
+            }
+            let level_bytes = std::fs::read(&out).expect("level");
+            let level = sightline_formats::slvl::read(&level_bytes).expect("level reads back");
+            assert!(level.has_vis() || level.num_clusters == 0, "{name}: vis ran");
+            bytes.push((level_bytes, prt_text));
+        }
+        assert!(bytes[0] == bytes[1], "{name}: output differs between 1 and 2 threads");
+    }
+}
+
+#[test]
+fn detail_brushes_group_leaves_into_clusters() {
+    let input = sightline_tests::bundled_maps().join("detail_water.map");
+    let text = std::fs::read_to_string(&input).expect("map");
+    let map = sightline_formats::map::parse(&text, "detail_water.map").expect("parses");
+    let out = compile(
+        &Source::Map { map, file: "detail_water.map".into() },
+        &CompileOptions::default(),
+        &NoProgress,
+    )
+    .expect("compiles");
+    let level = &out.level;
+    let open = level.leaves.iter().filter(|l| l.cluster >= 0).count() as u32;
+    assert!(
+        level.num_clusters < open,
+        "detail leaves share clusters: {} clusters, {open} leaves",
+        level.num_clusters
+    );
+    assert_eq!(out.prt.format, sightline_formats::prt::PrtFormat::Prt2);
+    assert!(level.leaves.iter().any(|l| l.contents == sightline_formats::Contents::Water));
+}

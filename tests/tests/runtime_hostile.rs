@@ -1,0 +1,56 @@
+//! Damaged `.slvl` files through the runtime loader: truncations, bit flips and overwritten words
+//! must fail with an error or load a world that answers every query without panicking.
+
+use glam::{Vec3, Vec3A};
+use sightline_formats::slvl;
+use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
+use sightline_runtime::poses::SplitMix64;
+use sightline_runtime::{Camera, Scratch, Visible, load, synth};
+
+#[test]
+fn damaged_slvl_files_fail_or_answer() {
+    let level = synth::grid_level([5, 4, 3], 64.0, true, |x, y, z| (x + y + z) % 4 == 0);
+    slvl::validate(&level).expect("valid level");
+    let bases = [
+        slvl::write(&level, &slvl::WriteOptions { compress: false }),
+        slvl::write(&level, &slvl::WriteOptions { compress: true }),
+    ];
+    assert!(load::load_slvl(&bases[0]).is_ok() && load::load_slvl(&bases[1]).is_ok());
+    let mut rng = SplitMix64::new(2024);
+    let (mut rejected, mut loaded) = (0, 0);
+    for i in 0..6000 {
+        let mut bytes = bases[i % 2].clone();
+        match rng.below(3) {
+            0 => bytes.truncate(rng.below(bytes.len())),
+            1 => {
+                for _ in 0..1 + rng.below(4) {
+                    let at = rng.below(bytes.len());
+                    bytes[at] ^= 1 << rng.below(8);
+                }
+            }
+            _ => {
+                let at = rng.below(bytes.len().saturating_sub(4));
+                let word: u32 = [0, u32::MAX, 0x7fff_ffff, 1 << 20, rng.next_u64() as u32][rng.below(5)];
+                bytes[at..at + 4].copy_from_slice(&word.to_le_bytes());
+            }
+        }
+        match load::load_bytes(&bytes) {
+            Err(e) => {
+                assert!(!e.to_string().is_empty());
+                rejected += 1;
+            }
+            Ok(world) => {
+                loaded += 1;
+                let mut scratch = Scratch::new(&world);
+                let mut out = Visible::default();
+                let p = rng.point_in(Vec3A::splat(-64.0), Vec3A::splat(400.0));
+                let _ = world.leaf_at(p);
+                let _ = world.trace(p, p + Vec3A::new(300.0, 50.0, -20.0));
+                let cam = Camera::quake(Vec3::from(p), rng.range(0.0, 360.0), 0.0);
+                Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+                Portal.cull(&world, &cam.view(), &mut scratch, &mut out);
+            }
+        }
+    }
+    assert!(rejected > 3000, "only {rejected} of 6000 damaged files rejected ({loaded} loaded)");
+}

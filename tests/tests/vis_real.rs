@@ -1,0 +1,158 @@
+//! Vis on real portal files: identical output for any thread count, resume after an interrupt
+//! gives the uninterrupted result, the drop-in `.bsp` writer produces a file our reader loads
+//! whose rows are our PVS with every other lump unchanged, the PVS is no looser than the
+//! reference's, and ray sampling finds no visible pair it misses.
+
+use std::path::{Path, PathBuf};
+
+use sightline::cmd::vis::Args;
+use sightline::validate::pvs::level_pvs;
+use sightline::validate::{OracleChoice, Options, load, validate};
+use sightline_compiler::vis::{self, VisError, VisOptions, VisResult};
+use sightline_formats::bsp::{self, lump};
+use sightline_formats::prt::{self, PortalFile};
+
+fn ericw(name: &str) -> Option<PathBuf> {
+    let p = sightline_tests::shared_maps()?.join("ericw").join(name);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("note: {} missing; skipped", p.display());
+        None
+    }
+}
+
+fn portal_file(name: &str) -> Option<PortalFile> {
+    let path = ericw(name)?;
+    Some(prt::read(&std::fs::read_to_string(&path).unwrap(), name).unwrap())
+}
+
+/// Every leaf's uncompressed row, back to back.
+fn leaf_rows(r: &VisResult) -> Vec<u8> {
+    let mut all = Vec::new();
+    let mut row = Vec::new();
+    for leaf in 0..r.num_leaves() {
+        r.leaf_row_bytes(leaf, &mut row);
+        all.extend_from_slice(&row);
+    }
+    all
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sightline-vis-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn same_pvs_for_1_2_and_8_threads() {
+    let Some(prt) = portal_file("dm1.prt") else { return };
+    for fast in [false, true] {
+        let runs: Vec<Vec<u8>> = [1, 2, 8]
+            .iter()
+            .map(|&threads| leaf_rows(&vis::run(&prt, &VisOptions { threads, fast, ..VisOptions::default() }, &|_| {}).unwrap()))
+            .collect();
+        assert!(runs.iter().all(|r| *r == runs[0]), "fast={fast}: rows differ between thread counts");
+        assert!(runs[0].iter().any(|&b| b != 0));
+    }
+}
+
+#[test]
+fn resumed_run_equals_uninterrupted_run() {
+    let Some(prt) = portal_file("dm1.prt") else { return };
+    let dir = temp_dir("resume");
+    let state = dir.join("dm1.state");
+    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
+    let opts = VisOptions { threads: 2, state: Some(state.clone()), stop_after: Some(700), ..VisOptions::default() };
+    match vis::run(&prt, &opts, &|_| {}) {
+        Err(VisError::Interrupted { done, total }) => assert!(done >= 700 && done < total),
+        other => panic!("expected an interruption, got {other:?}"),
+    }
+    assert!(state.is_file());
+    // Another input refuses the state.
+    let mut other = prt.clone();
+    other.portals.pop();
+    assert!(matches!(vis::run(&other, &VisOptions { stop_after: None, ..opts.clone() }, &|_| {}), Err(VisError::State(_))));
+    let resumed = vis::run(&prt, &VisOptions { stop_after: None, ..opts }, &|_| {}).unwrap();
+    assert!(resumed.stats.resumed_portals >= 700);
+    assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
+    assert_eq!(resumed.stats.chains, whole.stats.chains, "work is counted across the resume");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Total visible leaf pairs stored in a BSP.
+fn bsp_pairs(path: &Path) -> u64 {
+    let b = bsp::read(&std::fs::read(path).unwrap()).unwrap();
+    let s = b.pvs_stats().unwrap().unwrap();
+    (s.avg_visible * s.visleafs as f64).round() as u64
+}
+
+fn lump_bytes(file: &[u8], b: &bsp::Bsp, i: usize) -> Vec<u8> {
+    let l = b.lumps[i];
+    file[l.offset..l.end()].to_vec()
+}
+
+#[test]
+fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
+    let (Some(src_bsp), Some(src_prt), Some(reference)) = (ericw("dm1.bsp"), ericw("dm1.prt"), ericw("dm1.vis.bsp"))
+    else {
+        return;
+    };
+    let dir = temp_dir("dropin");
+    let (bsp_path, prt_path) = (dir.join("dm1.bsp"), dir.join("dm1.prt"));
+    std::fs::copy(&src_bsp, &bsp_path).unwrap();
+    std::fs::copy(&src_prt, &prt_path).unwrap();
+    let original = std::fs::read(&bsp_path).unwrap();
+    let args = Args {
+        input: bsp_path.clone(),
+        fast: false,
+        level: 4,
+        threads: 2,
+        state: None,
+        checkpoint_secs: 180,
+        stop_after: None,
+        json: true,
+    };
+    sightline::cmd::vis::run(&args).unwrap();
+    let written = std::fs::read(&bsp_path).unwrap();
+    let (old, new) = (bsp::read(&original).unwrap(), bsp::read(&written).unwrap());
+
+    // Rows decode to the PVS vis computes (leaf j + 1 owns row j).
+    let prt = prt::read(&std::fs::read_to_string(&prt_path).unwrap(), "dm1.prt").unwrap();
+    let ours = vis::run(&prt, &VisOptions::default(), &|_| {}).unwrap();
+    let mut row = Vec::new();
+    for j in 0..ours.num_leaves() {
+        ours.leaf_row_bytes(j, &mut row);
+        assert_eq!(new.decode_leaf_pvs(j + 1).unwrap(), row, "row of leaf {}", j + 1);
+    }
+    // Leaves of a cluster share one row.
+    let clusters = ours.leaf_clusters();
+    for j in 1..ours.num_leaves() {
+        if clusters[j] == clusters[j - 1] {
+            assert_eq!(new.leaves[j + 1].visofs, new.leaves[j].visofs);
+        }
+    }
+    // Every lump but visibility and leaves is byte-identical; leaves differ only in visofs/ambient.
+    for i in 0..bsp::NUM_LUMPS {
+        if i != lump::VISIBILITY && i != lump::LEAVES {
+            assert_eq!(lump_bytes(&original, &old, i), lump_bytes(&written, &new, i), "lump {i}");
+        }
+    }
+    assert_eq!(old.leaves.len(), new.leaves.len());
+    for (a, b) in old.leaves.iter().zip(&new.leaves) {
+        assert_eq!((a.contents, a.mins, a.maxs, a.first_marksurface, a.num_marksurfaces), (b.contents, b.mins, b.maxs, b.first_marksurface, b.num_marksurfaces));
+        assert!(b.ambient.iter().all(|&v| v == 0 || v == 255));
+    }
+    // No looser than the reference compiler's PVS.
+    let (mine, theirs) = (bsp_pairs(&bsp_path), bsp_pairs(&reference));
+    eprintln!("dm1 visible pairs: ours {mine}, reference {theirs}, ratio {:.4}", mine as f64 / theirs as f64);
+    assert!(mine <= theirs, "ours {mine} > reference {theirs}");
+
+    // Ray sampling finds no visible pair missing from the written PVS.
+    let level = load::load_level(&bsp_path).unwrap();
+    let pvs = level_pvs(&level).unwrap();
+    let v = validate(&level, &pvs, &Options { rays: 400_000, oracle: OracleChoice::Both, ..Options::default() }).unwrap();
+    eprint!("{}", v.report.text());
+    assert_eq!(v.report.misses(), 0, "{}", v.report.text());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

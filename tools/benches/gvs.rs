@@ -1,0 +1,70 @@
+//! Ray casting and GVS benchmarks on the generated city (about 0.8 M triangles at size 100).
+//!
+//! `cargo bench -p sightline --bench gvs`. Throughput is reported in rays per second on one
+//! thread (criterion runs the closures on the calling thread), i.e. rays/s per core.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use sightline::gvs::{Cell, Params, Variant, sampler};
+use sightline::scenegen::{self, Rng};
+use sightline_runtime::bvh::Bvh;
+use std::hint::black_box;
+
+const RAYS: usize = 100_000;
+
+fn bench(c: &mut Criterion) {
+    let scene = scenegen::city(100, 1);
+    let (lo, hi) = scene.cells[0];
+    let cell = Cell::new(lo, hi);
+    let mut g = c.benchmark_group("bvh");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(scene.triangles.len() as u64));
+    g.bench_function(format!("build city:100 ({} triangles)", scene.triangles.len()), |b| {
+        b.iter(|| black_box(Bvh::build(&scene.triangles)))
+    });
+    let bvh = Bvh::build(&scene.triangles);
+    // Eye-level rays from the street cell (as the error metric casts them) and GVS-style rays
+    // leaving the cell surface in every direction.
+    let mut rng = Rng::new(3);
+    let eye: Vec<(Vec3, Vec3)> = (0..RAYS)
+        .map(|_| {
+            let o = lo + (hi - lo) * Vec3::new(rng.unit(), rng.unit(), rng.unit());
+            let yaw = rng.range(0.0, std::f32::consts::TAU);
+            let pitch = rng.range(-0.8, 0.8);
+            (o, Vec3::new(pitch.cos() * yaw.cos(), pitch.cos() * yaw.sin(), pitch.sin()))
+        })
+        .collect();
+    let surface: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| cell.sample_ray(i)).collect();
+    g.throughput(Throughput::Elements(RAYS as u64));
+    for (name, rays) in [("intersect eye-level rays", &eye), ("intersect cell-surface rays", &surface)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for &(o, d) in rays.iter() {
+                    hits += u32::from(bvh.intersect(o, d, f32::INFINITY).is_some());
+                }
+                black_box(hits)
+            })
+        });
+    }
+    g.bench_function("occluded eye-level rays (t_max 20)", |b| {
+        b.iter(|| black_box(eye.iter().filter(|&&(o, d)| bvh.occluded(o, d, 20.0)).count()))
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("gvs");
+    g.sample_size(10);
+    for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette] {
+        g.bench_function(format!("{} city:100 street cell", v.name()), |b| {
+            b.iter(|| {
+                black_box(
+                    sampler::run(&scene.triangles, &bvh, cell, v.params(Params::default())).entries.len(),
+                )
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
