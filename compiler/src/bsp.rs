@@ -96,6 +96,66 @@ impl Tree {
         i
     }
 
+    /// True when some node was split by a detail brush.
+    pub fn has_detail(&self) -> bool {
+        self.nodes.iter().any(|n| matches!(n, TreeNode::Node { detail: true, .. }))
+    }
+
+    /// The tree with every maximal detail subtree replaced by one leaf, which is empty when any
+    /// leaf below it is non-solid in `contents` (per tree index) and solid otherwise. Also returns,
+    /// for each index of the new tree, the index in `self` it stands for. Portals of this tree
+    /// are the portals between clusters.
+    pub fn collapse_detail(&self, contents: &[Contents]) -> (Tree, Vec<u32>) {
+        let mut out = Tree::default();
+        let mut origin = Vec::new();
+        self.collapse_r(0, contents, &mut out.nodes, &mut origin);
+        (out, origin)
+    }
+
+    fn collapse_r(&self, i: u32, contents: &[Contents], out: &mut Vec<TreeNode>, origin: &mut Vec<u32>) -> u32 {
+        let index = out.len() as u32;
+        origin.push(i);
+        match &self.nodes[i as usize] {
+            TreeNode::Leaf { bounds, .. } => {
+                out.push(TreeNode::Leaf { contents: contents[i as usize], bounds: *bounds });
+            }
+            TreeNode::Node { bounds, detail: true, .. } => {
+                let open = self.subtree(i).any(|j| {
+                    matches!(self.nodes[j as usize], TreeNode::Leaf { .. }) && contents[j as usize] != Contents::Solid
+                });
+                let c = if open { Contents::Empty } else { Contents::Solid };
+                out.push(TreeNode::Leaf { contents: c, bounds: *bounds });
+            }
+            TreeNode::Node { plane, children, bounds, detail: false } => {
+                out.push(TreeNode::Node { plane: *plane, children: [0, 0], bounds: *bounds, detail: false });
+                let f = self.collapse_r(children[0], contents, out, origin);
+                let k = self.collapse_r(children[1], contents, out, origin);
+                if let Some(TreeNode::Node { children, .. }) = out.get_mut(index as usize) {
+                    *children = [f, k];
+                }
+            }
+        }
+        index
+    }
+
+    /// Indices of the subtree under `i` (itself included): a contiguous pre-order range.
+    fn subtree(&self, i: u32) -> std::ops::Range<u32> {
+        let mut end = i + 1;
+        let mut pending = 1u32;
+        // In pre-order a subtree is the shortest run from `i` holding one more leaf than nodes.
+        while pending > 0 {
+            match self.nodes.get((end - 1) as usize) {
+                Some(TreeNode::Node { .. }) => pending += 1,
+                Some(TreeNode::Leaf { .. }) => pending -= 1,
+                None => break,
+            }
+            if pending > 0 {
+                end += 1;
+            }
+        }
+        i..end
+    }
+
     /// Number of interior nodes.
     pub fn num_nodes(&self) -> usize {
         self.nodes.iter().filter(|n| matches!(n, TreeNode::Node { .. })).count()
@@ -344,5 +404,60 @@ mod tests {
         assert!(matches!(tree.nodes[solid as usize], TreeNode::Leaf { contents: Contents::Solid, .. }));
         let empty = tree.locate(&planes, DVec3::splat(100.0));
         assert!(matches!(tree.nodes[empty as usize], TreeNode::Leaf { contents: Contents::Empty, .. }));
+    }
+}
+
+#[cfg(test)]
+mod proptests {
+    use super::*;
+    use glam::DVec3;
+    use proptest::prelude::*;
+
+    fn boxes() -> impl Strategy<Value = Vec<([i32; 3], [i32; 3])>> {
+        prop::collection::vec(
+            (prop::array::uniform3(0i32..6), prop::array::uniform3(1i32..4))
+                .prop_map(|(lo, size)| (lo, [lo[0] + size[0], lo[1] + size[1], lo[2] + size[2]])),
+            1..7,
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Leaf contents are exact: a point is in a solid leaf exactly when it is inside a box.
+        #[test]
+        fn leaf_contents_match_the_brushes(list in boxes()) {
+            let mut planes = PlaneSet::new();
+            let scale = 16.0;
+            let mut brushes = Vec::new();
+            for (lo, hi) in &list {
+                let bounds = Aabb::new(DVec3::from(lo.map(f64::from)) * scale, DVec3::from(hi.map(f64::from)) * scale);
+                let mut b = Brush::from_box(&mut planes, &bounds, Contents::Solid);
+                for s in &mut b.sides {
+                    s.used = false;
+                }
+                brushes.push(b);
+            }
+            let world = Aabb::new(DVec3::splat(-16.0), DVec3::splat(160.0));
+            let volume = Brush::from_box(&mut planes, &world, Contents::Empty);
+            let tree = build(&planes, brushes, volume);
+            for x in 0..18 {
+                for y in 0..18 {
+                    for z in 0..18 {
+                        // Cell centres never lie on a plane.
+                        let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5) * 8.0 - DVec3::splat(8.0);
+                        let inside = list.iter().any(|(lo, hi)| {
+                            (0..3).all(|a| p[a] > lo[a] as f64 * scale && p[a] < hi[a] as f64 * scale)
+                        });
+                        let leaf = tree.locate(&planes, p);
+                        let TreeNode::Leaf { contents, bounds } = &tree.nodes[leaf as usize] else {
+                            panic!("locate ends in a leaf");
+                        };
+                        prop_assert_eq!(*contents == Contents::Solid, inside, "at {}", p);
+                        prop_assert!(bounds.contains_point(p, 1e-9));
+                    }
+                }
+            }
+        }
     }
 }

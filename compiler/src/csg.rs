@@ -183,3 +183,63 @@ mod tests {
         assert!((area(&faces) - expect).abs() < 1e-6, "{} vs {expect}", area(&faces));
     }
 }
+
+#[cfg(test)]
+mod proptests {
+    use super::*;
+    use glam::DVec3;
+    use proptest::prelude::*;
+    use sightline_formats::Aabb;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The faces left by CSG cover exactly the surface of the union of the boxes: their total
+        /// area equals the union's surface area counted on a unit grid.
+        #[test]
+        fn faces_cover_the_union_surface_once(list in prop::collection::vec(
+            (prop::array::uniform3(0i32..5), prop::array::uniform3(1i32..4)), 1..6)) {
+            let mut planes = PlaneSet::new();
+            let mut brushes = Vec::new();
+            let mut grid = [[[false; 10]; 10]; 10];
+            for (lo, size) in &list {
+                let hi = [lo[0] + size[0], lo[1] + size[1], lo[2] + size[2]];
+                let b = Brush::from_box(
+                    &mut planes,
+                    &Aabb::new(DVec3::from(lo.map(f64::from)), DVec3::from(hi.map(f64::from))),
+                    Contents::Solid,
+                );
+                brushes.push(CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0 });
+                for x in lo[0]..hi[0] {
+                    for y in lo[1]..hi[1] {
+                        for z in lo[2]..hi[2] {
+                            grid[x as usize][y as usize][z as usize] = true;
+                        }
+                    }
+                }
+            }
+            let filled = |x: i32, y: i32, z: i32| {
+                (0..10).contains(&x) && (0..10).contains(&y) && (0..10).contains(&z)
+                    && grid[x as usize][y as usize][z as usize]
+            };
+            let mut surface = 0.0;
+            for x in 0..10 {
+                for y in 0..10 {
+                    for z in 0..10 {
+                        if !filled(x, y, z) {
+                            continue;
+                        }
+                        for (dx, dy, dz) in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
+                            if !filled(x + dx, y + dy, z + dz) {
+                                surface += 1.0;
+                            }
+                        }
+                    }
+                }
+            }
+            let faces = clip_faces(&planes, &brushes);
+            let area: f64 = faces.iter().map(|f| f.winding.area()).sum();
+            prop_assert!((area - surface).abs() < 1e-6, "faces {} vs surface {}", area, surface);
+        }
+    }
+}

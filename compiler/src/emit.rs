@@ -4,7 +4,9 @@
 //! - Leaves are numbered in tree pre-order (front first). Non-solid world leaves are the vis
 //!   leaves, numbered `0..` in that order; each maximal subtree under a detail node is one
 //!   cluster, every other vis leaf its own, clusters numbered by first vis leaf. The `.prt` is
-//!   PRT1 when clusters are one per leaf, else PRT2 with only the portals between clusters.
+//!   PRT1 when clusters are one per leaf, else PRT2 whose portals are those of the tree with each
+//!   detail subtree collapsed to one cell (whole structural portals, as qbsp writes them: detail
+//!   never blocks vis). The level's own portals stay leaf to leaf.
 //! - A face lies on its brush side's plane and is listed by every kept leaf it touches on its
 //!   front side (found by pushing the polygon down the tree, splitting with [`ON_EPSILON`]); a
 //!   face that touches no kept leaf borders only filled space and is dropped.
@@ -36,6 +38,9 @@ pub struct World<'a> {
     pub faces: &'a [CsgFace],
     /// Bounds of its brushes.
     pub bounds: Aabb,
+    /// With detail: the portals of the tree with detail subtrees collapsed, and for each index of
+    /// that tree the world tree index it stands for. These become the `.prt`'s cluster portals.
+    pub cluster_portals: Option<(&'a Portals, &'a [u32])>,
 }
 
 /// A submodel handed to [`emit`].
@@ -152,9 +157,25 @@ pub fn emit(
         let leaves = p.nodes.map(|n| leaf_map[n as usize]);
         let first_vertex = out.push_winding(&p.winding);
         out.level.portals.push(Portal { leaves, plane, first_vertex, num_vertices: p.winding.len() as u32 });
-        let clusters = leaves.map(|l| out.level.leaves[l as usize].cluster as u32);
-        if clusters[0] != clusters[1] {
+        if world.cluster_portals.is_none() {
+            let clusters = leaves.map(|l| out.level.leaves[l as usize].cluster as u32);
             prt.portals.push(PrtPortal { leaves: clusters, winding: p.winding.clone() });
+        }
+    }
+    if let Some((graph, origin)) = world.cluster_portals {
+        for p in &graph.portals {
+            if p.plane_index.is_none() || p.winding.is_empty() {
+                continue;
+            }
+            let cluster_of = |n: u32| {
+                let original = origin.get(n as usize)?;
+                clusters.get(keys.get(*original as usize)?).copied()
+            };
+            if let (Some(a), Some(b)) = (cluster_of(p.nodes[0]), cluster_of(p.nodes[1]))
+                && a != b
+            {
+                prt.portals.push(PrtPortal { leaves: [a as u32, b as u32], winding: p.winding.clone() });
+            }
         }
     }
 

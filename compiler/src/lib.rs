@@ -442,6 +442,10 @@ fn compile_here(
     clock.lap("outside", progress);
 
     progress.begin("emit", 1);
+    let collapsed = tree.has_detail().then(|| {
+        let (ctree, origin) = tree.collapse_detail(&fill.contents);
+        (portals::build(&ctree, &prep.planes, &bounds), origin)
+    });
     let world_bounds = bounds.expanded(-OUTSIDE_MARGIN);
     let world = emit::World {
         tree: &tree,
@@ -449,6 +453,7 @@ fn compile_here(
         portals: &graph,
         faces: &prep.world_faces,
         bounds: world_bounds,
+        cluster_portals: collapsed.as_ref().map(|(g, o)| (g, o.as_slice())),
     };
     let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures);
     progress.advance(1);

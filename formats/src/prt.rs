@@ -180,13 +180,21 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
         _ => remaining / 2,
     };
     if num_leaves.1 as usize > leaf_limit {
-        return Err(r.err(num_leaves.0, PrtErrorKind::CountTooLarge { what: "leaf", count: num_leaves.1.into() }));
+        return Err(
+            r.err(num_leaves.0, PrtErrorKind::CountTooLarge { what: "leaf", count: num_leaves.1.into() })
+        );
     }
     if format == PrtFormat::Prt2 && num_clusters.1 as usize > remaining / 3 {
-        return Err(r.err(num_clusters.0, PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() }));
+        return Err(r.err(
+            num_clusters.0,
+            PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() },
+        ));
     }
     if format == PrtFormat::Prt1Am && num_clusters.1 > num_leaves.1 {
-        return Err(r.err(num_clusters.0, PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() }));
+        return Err(r.err(
+            num_clusters.0,
+            PrtErrorKind::CountTooLarge { what: "cluster", count: num_clusters.1.into() },
+        ));
     }
     let (num_leaves, num_clusters, num_portals) = (num_leaves.1, num_clusters.1, num_portals.1);
     let what = if format == PrtFormat::Prt1 { "leaf" } else { "cluster" };
@@ -217,8 +225,12 @@ pub fn write(prt: &PortalFile) -> String {
     // `write!` to a String cannot fail.
     let _ = match prt.format {
         PrtFormat::Prt1 => write!(s, "PRT1\n{}\n{}\n", prt.num_leaves, prt.portals.len()),
-        PrtFormat::Prt2 => write!(s, "PRT2\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len()),
-        PrtFormat::Prt1Am => write!(s, "PRT1-AM\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves),
+        PrtFormat::Prt2 => {
+            write!(s, "PRT2\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len())
+        }
+        PrtFormat::Prt1Am => {
+            write!(s, "PRT1-AM\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves)
+        }
     };
     for p in &prt.portals {
         let _ = write!(s, "{} {} {}", p.winding.points.len(), p.leaves[0], p.leaves[1]);
@@ -374,7 +386,9 @@ impl<'a> Reader<'a, '_> {
     fn coord(&mut self) -> Result<f64, PrtError> {
         let tok = self.next("a coordinate")?;
         let Ok(v) = tok.text.parse::<f64>() else {
-            return Err(self.at(&tok, PrtErrorKind::NotANumber { found: shown(tok.text), expected: "a coordinate" }));
+            return Err(
+                self.at(&tok, PrtErrorKind::NotANumber { found: shown(tok.text), expected: "a coordinate" })
+            );
         };
         if !v.is_finite() {
             return Err(self.at(&tok, PrtErrorKind::NonFinite(shown(tok.text))));
@@ -413,7 +427,12 @@ impl<'a> Reader<'a, '_> {
                 }
                 let leaf = match u32::try_from(v) {
                     Ok(u) if u < num_leaves => u,
-                    _ => return Err(self.at(&tok, PrtErrorKind::OutOfRange { what: "leaf", value: v, limit: num_leaves })),
+                    _ => {
+                        return Err(self.at(
+                            &tok,
+                            PrtErrorKind::OutOfRange { what: "leaf", value: v, limit: num_leaves },
+                        ));
+                    }
                 };
                 let slot = &mut of[leaf as usize];
                 if *slot != NONE {
@@ -468,13 +487,22 @@ mod tests {
         assert_eq!(e.to_string(), "bad.prt:4:5: leaf 2 out of range (there are 2)");
         assert!(matches!(err("PRT1\n2\n1\n2 0 1 (0 0 0) (1 0 0)\n").kind, PrtErrorKind::BadPointCount(2)));
         assert!(matches!(err("PRT1\n2\n1\n65 0 1 (0 0 0)\n").kind, PrtErrorKind::BadPointCount(65)));
-        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (inf 0 0) (0 1 0)\n").kind, PrtErrorKind::NonFinite(_)));
-        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (NaN 0 0) (0 1 0)\n").kind, PrtErrorKind::NonFinite(_)));
+        assert!(matches!(
+            err("PRT1\n2\n1\n3 0 1 (0 0 0) (inf 0 0) (0 1 0)\n").kind,
+            PrtErrorKind::NonFinite(_)
+        ));
+        assert!(matches!(
+            err("PRT1\n2\n1\n3 0 1 (0 0 0) (NaN 0 0) (0 1 0)\n").kind,
+            PrtErrorKind::NonFinite(_)
+        ));
         assert!(matches!(err("PRT3\n").kind, PrtErrorKind::BadHeader(_)));
         assert!(matches!(err("PRT1\n2\n4000000000\n").kind, PrtErrorKind::CountTooLarge { .. }));
         assert!(matches!(err("PRT1\n2\n99999999\n").kind, PrtErrorKind::CountTooLarge { .. }));
         assert!(matches!(err("PRT2\n999999\n1\n0\n").kind, PrtErrorKind::CountTooLarge { .. }));
-        assert!(matches!(err("PRT1\n2\n1\n3 0 1 (0 0 0) (1 0 0) (0 1 0\n").kind, PrtErrorKind::UnexpectedEof(_)));
+        assert!(matches!(
+            err("PRT1\n2\n1\n3 0 1 (0 0 0) (1 0 0) (0 1 0\n").kind,
+            PrtErrorKind::UnexpectedEof(_)
+        ));
         assert!(matches!(err("PRT1\n2\n0\nextra").kind, PrtErrorKind::Trailing(_)));
         assert!(matches!(err("PRT2\n2\n1\n0\n0 0 -1\n").kind, PrtErrorKind::LeafTwice(0)));
         assert!(matches!(err("PRT2\n2\n1\n0\n0 -1\n").kind, PrtErrorKind::LeafMissing(1)));
@@ -482,20 +510,16 @@ mod tests {
     }
 
     fn coord() -> impl Strategy<Value = f64> {
-        prop_oneof![
-            (-4096i32..4096).prop_map(f64::from),
-            -1.0e5f64..1.0e5,
-            (-1.0e-10f64..1.0e-10),
-        ]
+        prop_oneof![(-4096i32..4096).prop_map(f64::from), -1.0e5f64..1.0e5, (-1.0e-10f64..1.0e-10),]
     }
 
     fn portal(limit: u32) -> impl Strategy<Value = PrtPortal> {
-        (0..limit, 0..limit, prop::collection::vec((coord(), coord(), coord()), 3..10)).prop_map(|(a, b, pts)| {
-            PrtPortal {
+        (0..limit, 0..limit, prop::collection::vec((coord(), coord(), coord()), 3..10)).prop_map(
+            |(a, b, pts)| PrtPortal {
                 leaves: [a, b],
                 winding: Winding::new(pts.into_iter().map(|(x, y, z)| DVec3::new(x, y, z)).collect()),
-            }
-        })
+            },
+        )
     }
 
     fn file() -> impl Strategy<Value = PortalFile> {
@@ -512,7 +536,13 @@ mod tests {
                 } else if format == PrtFormat::Prt2 {
                     // The writer lists leaves cluster by cluster, so the reader's order is the same.
                 }
-                PortalFile { format, num_leaves: lc.len() as u32, num_clusters: clusters, portals, leaf_clusters: lc }
+                PortalFile {
+                    format,
+                    num_leaves: lc.len() as u32,
+                    num_clusters: clusters,
+                    portals,
+                    leaf_clusters: lc,
+                }
             })
         })
     }

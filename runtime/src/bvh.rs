@@ -17,7 +17,7 @@
 //! - Results are deterministic: among hits at exactly equal `t` the one found first in the fixed
 //!   traversal order wins.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
 
 /// Most triangles in one leaf.
 pub const MAX_LEAF: usize = 4;
@@ -41,14 +41,38 @@ pub struct Hit {
     pub v: f32,
 }
 
-/// One node: a box, then either the first child (interior, `count == 0`; the second child is
-/// `first + 1`) or the first triangle of a leaf (`count > 0`).
+/// A node while building: a box, then either the first child (interior, `count == 0`; the second
+/// child is `first + 1`) or the first triangle of a leaf (`count > 0`).
 #[derive(Debug, Clone, Copy)]
-struct Node {
+struct BuildNode {
     min: Vec3,
     first: u32,
     max: Vec3,
     count: u32,
+}
+
+/// A node as traversed: 32 bytes, two SIMD lanes sets; the `w` lanes carry the bits of `first`
+/// (in `lo`) and `count` (in `hi`), as in [`BuildNode`].
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl Node {
+    fn pack(b: &BuildNode) -> Node {
+        Node { lo: b.min.extend(f32::from_bits(b.first)), hi: b.max.extend(f32::from_bits(b.count)) }
+    }
+
+    #[inline(always)]
+    fn first(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    #[inline(always)]
+    fn count(&self) -> u32 {
+        self.hi.w.to_bits()
+    }
 }
 
 /// A triangle's corners, exactly as given (watertightness needs shared corners bit-identical).
@@ -149,12 +173,12 @@ impl Bvh {
         if items.is_empty() {
             root_bounds = Bounds { min: Vec3::ZERO, max: Vec3::ZERO };
         }
-        nodes.push(Node { min: root_bounds.min, first: 0, max: root_bounds.max, count: items.len() as u32 });
+        nodes.push(BuildNode { min: root_bounds.min, first: 0, max: root_bounds.max, count: items.len() as u32 });
         // Index permutation into `items`, partitioned in place.
         let mut perm: Vec<u32> = (0..items.len() as u32).collect();
         let mut work = vec![0usize];
         while let Some(ni) = work.pop() {
-            let Node { first, count, .. } = nodes[ni];
+            let BuildNode { first, count, .. } = nodes[ni];
             let (lo, hi) = (first as usize, first as usize + count as usize);
             let Some(mid) = split(&items, &mut perm[lo..hi], &nodes[ni]) else {
                 continue;
@@ -164,7 +188,7 @@ impl Bvh {
             for (a, b) in [(lo, mid), (mid, hi)] {
                 let mut bb = Bounds::EMPTY;
                 perm[a..b].iter().for_each(|&k| bb.join(&items[k as usize].bounds));
-                nodes.push(Node { min: bb.min, first: a as u32, max: bb.max, count: (b - a) as u32 });
+                nodes.push(BuildNode { min: bb.min, first: a as u32, max: bb.max, count: (b - a) as u32 });
             }
             nodes[ni].first = left as u32;
             nodes[ni].count = 0;
@@ -179,7 +203,7 @@ impl Bvh {
                 Prepared { v0: a, v1: b, v2: c }
             })
             .collect();
-        Bvh { nodes, tris, ids }
+        Bvh { nodes: nodes.iter().map(Node::pack).collect(), tris, ids }
     }
 
     /// Number of triangles the tree holds (non-finite input triangles are left out).
@@ -211,21 +235,22 @@ impl Bvh {
         if self.ids.is_empty() || !(t_max > 0.0) {
             return None;
         }
-        let inv = dir.recip();
+        let inv = Vec3A::from(dir.recip());
+        let o = Vec3A::from(origin);
         let ray = Ray::new(origin, dir);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
         let mut stack = [0u32; STACK];
         let mut sp = 0usize;
         let mut ni = 0usize;
-        if box_hit(&self.nodes[0], origin, inv, t_best).is_none() {
+        if box_hit(&self.nodes[0], o, inv, t_best).is_none() {
             return None;
         }
         loop {
             let node = &self.nodes[ni];
-            if node.count > 0 {
-                let first = node.first as usize;
-                for k in first..first + node.count as usize {
+            if node.count() > 0 {
+                let first = node.first() as usize;
+                for k in first..first + node.count() as usize {
                     if let Some((t, u, v)) = tri_hit(&self.tris[k], &ray, t_best) {
                         t_best = t;
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
@@ -235,9 +260,9 @@ impl Bvh {
                     }
                 }
             } else {
-                let l = node.first as usize;
-                let tl = box_hit(&self.nodes[l], origin, inv, t_best);
-                let tr = box_hit(&self.nodes[l + 1], origin, inv, t_best);
+                let l = node.first() as usize;
+                let tl = box_hit(&self.nodes[l], o, inv, t_best);
+                let tr = box_hit(&self.nodes[l + 1], o, inv, t_best);
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
                         let (near, far) = if a <= b { (l, l + 1) } else { (l + 1, l) };
@@ -266,7 +291,7 @@ impl Bvh {
                 }
                 sp -= 1;
                 let cand = stack[sp] as usize;
-                if box_hit(&self.nodes[cand], origin, inv, t_best).is_some() {
+                if box_hit(&self.nodes[cand], o, inv, t_best).is_some() {
                     ni = cand;
                     break;
                 }
@@ -277,7 +302,7 @@ impl Bvh {
 
 /// Choose a split of `perm` (the triangles of `node`) by binned SAH; returns the count of the left
 /// part, or `None` for a leaf.
-fn split(items: &[Item], perm: &mut [u32], node: &Node) -> Option<usize> {
+fn split(items: &[Item], perm: &mut [u32], node: &BuildNode) -> Option<usize> {
     let n = perm.len();
     if n <= 1 {
         return None;
@@ -358,9 +383,9 @@ fn partition(s: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
 
 /// Entry distance of the ray into the node's box when it enters before `t_max`.
 #[inline(always)]
-fn box_hit(node: &Node, origin: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
-    let t0 = (node.min - origin) * inv;
-    let t1 = (node.max - origin) * inv;
+fn box_hit(node: &Node, origin: Vec3A, inv: Vec3A, t_max: f32) -> Option<f32> {
+    let t0 = (Vec3A::from_vec4(node.lo) - origin) * inv;
+    let t1 = (Vec3A::from_vec4(node.hi) - origin) * inv;
     let tnear = t0.min(t1).max_element().max(0.0);
     // Widened by a few ulps so that boxes never cull a hit the watertight test would report.
     let tfar = t0.max(t1).min_element().min(t_max) * (1.0 + 4.0 * f32::EPSILON);

@@ -35,7 +35,9 @@ fn reference_portal_files_parse_with_anchor_counts_and_round_trip() {
             "{name}"
         );
         assert_eq!(f.leaf_clusters.len(), leaves as usize);
-        assert!(f.portals.iter().all(|p| p.winding.points.len() >= 3 && p.leaves.iter().all(|&c| c < clusters)));
+        assert!(
+            f.portals.iter().all(|p| p.winding.points.len() >= 3 && p.leaves.iter().all(|&c| c < clusters))
+        );
         let back = prt::read(&prt::write(&f), name).unwrap();
         assert_eq!(back, f, "{name}: write then read");
     }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use sightline::cmd::vis::Args;
 use sightline::validate::pvs::level_pvs;
-use sightline::validate::{OracleChoice, Options, load, validate};
+use sightline::validate::{Options, OracleChoice, load, validate};
 use sightline_compiler::vis::{self, VisError, VisOptions, VisResult};
 use sightline_formats::bsp::{self, lump};
 use sightline_formats::prt::{self, PortalFile};
@@ -50,7 +50,11 @@ fn same_pvs_for_1_2_and_8_threads() {
     for fast in [false, true] {
         let runs: Vec<Vec<u8>> = [1, 2, 8]
             .iter()
-            .map(|&threads| leaf_rows(&vis::run(&prt, &VisOptions { threads, fast, ..VisOptions::default() }, &|_| {}).unwrap()))
+            .map(|&threads| {
+                leaf_rows(
+                    &vis::run(&prt, &VisOptions { threads, fast, ..VisOptions::default() }, &|_| {}).unwrap(),
+                )
+            })
             .collect();
         assert!(runs.iter().all(|r| *r == runs[0]), "fast={fast}: rows differ between thread counts");
         assert!(runs[0].iter().any(|&b| b != 0));
@@ -63,7 +67,8 @@ fn resumed_run_equals_uninterrupted_run() {
     let dir = temp_dir("resume");
     let state = dir.join("dm1.state");
     let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
-    let opts = VisOptions { threads: 2, state: Some(state.clone()), stop_after: Some(700), ..VisOptions::default() };
+    let opts =
+        VisOptions { threads: 2, state: Some(state.clone()), stop_after: Some(700), ..VisOptions::default() };
     match vis::run(&prt, &opts, &|_| {}) {
         Err(VisError::Interrupted { done, total }) => assert!(done >= 700 && done < total),
         other => panic!("expected an interruption, got {other:?}"),
@@ -72,7 +77,10 @@ fn resumed_run_equals_uninterrupted_run() {
     // Another input refuses the state.
     let mut other = prt.clone();
     other.portals.pop();
-    assert!(matches!(vis::run(&other, &VisOptions { stop_after: None, ..opts.clone() }, &|_| {}), Err(VisError::State(_))));
+    assert!(matches!(
+        vis::run(&other, &VisOptions { stop_after: None, ..opts.clone() }, &|_| {}),
+        Err(VisError::State(_))
+    ));
     let resumed = vis::run(&prt, &VisOptions { stop_after: None, ..opts }, &|_| {}).unwrap();
     assert!(resumed.stats.resumed_portals >= 700);
     assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
@@ -94,7 +102,8 @@ fn lump_bytes(file: &[u8], b: &bsp::Bsp, i: usize) -> Vec<u8> {
 
 #[test]
 fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
-    let (Some(src_bsp), Some(src_prt), Some(reference)) = (ericw("dm1.bsp"), ericw("dm1.prt"), ericw("dm1.vis.bsp"))
+    let (Some(src_bsp), Some(src_prt), Some(reference)) =
+        (ericw("dm1.bsp"), ericw("dm1.prt"), ericw("dm1.vis.bsp"))
     else {
         return;
     };
@@ -140,7 +149,10 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     }
     assert_eq!(old.leaves.len(), new.leaves.len());
     for (a, b) in old.leaves.iter().zip(&new.leaves) {
-        assert_eq!((a.contents, a.mins, a.maxs, a.first_marksurface, a.num_marksurfaces), (b.contents, b.mins, b.maxs, b.first_marksurface, b.num_marksurfaces));
+        assert_eq!(
+            (a.contents, a.mins, a.maxs, a.first_marksurface, a.num_marksurfaces),
+            (b.contents, b.mins, b.maxs, b.first_marksurface, b.num_marksurfaces)
+        );
         assert!(b.ambient.iter().all(|&v| v == 0 || v == 255));
     }
     // No looser than the reference compiler's PVS.
@@ -151,7 +163,9 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     // Ray sampling finds no visible pair missing from the written PVS.
     let level = load::load_level(&bsp_path).unwrap();
     let pvs = level_pvs(&level).unwrap();
-    let v = validate(&level, &pvs, &Options { rays: 400_000, oracle: OracleChoice::Both, ..Options::default() }).unwrap();
+    let v =
+        validate(&level, &pvs, &Options { rays: 400_000, oracle: OracleChoice::Both, ..Options::default() })
+            .unwrap();
     eprint!("{}", v.report.text());
     assert_eq!(v.report.misses(), 0, "{}", v.report.text());
     std::fs::remove_dir_all(&dir).unwrap();

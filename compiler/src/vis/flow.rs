@@ -1,14 +1,22 @@
-//! Full vis: depth-first flow from one one-way portal through the clusters in front of it.
+//! Full vis: depth-first flow from one one-way portal (the source) through the clusters in front
+//! of it.
 //!
 //! A stack frame holds the cluster reached, the (clipped) source and pass windings and the portals
-//! still possibly visible (`might`). For every portal `p` leaving the cluster: `might` narrows to
-//! the portals `p` itself might see (or finally sees, once `p` is done); the branch dies when that
-//! adds nothing new and `p` is already known visible. Otherwise `p` (the target) is clipped to the
-//! front of the source portal and of the pass portal, the source to the back of `p`, and then, by
-//! level: 1 the target by separators (source edge, pass vertex); 2 also (pass edge, source vertex);
-//! 3 the source by separators (target edge, pass vertex); 4 also (pass edge, target vertex).
-//! Separators of an unchanged (source, pass) pair are computed once per frame and reused for every
-//! target of the frame. All clips round toward visible (see [`super::poly`]).
+//! still possibly visible (`might`). For every portal `p` (the target) leaving the cluster:
+//! `might` narrows to what `p` itself might see (its `mightsee`, or its final row once `p` is
+//! done). Pruning works on clusters, since the PVS is about clusters: the flow keeps the set of
+//! clusters seen so far and the portals leading into them ("covered"); a branch dies when `p`
+//! leads to a seen cluster and `might` holds no uncovered portal, and when only `p`'s own cluster
+//! is new, `p` is tested but not entered. A tested target is clipped to the front of the source
+//! portal and of the pass portal, the source to the back of `p`, and then, by level: 1 the target
+//! by separators (source edge, pass vertex); 2 also (pass edge, source vertex); 3 the source by
+//! separators (target edge, pass vertex); 4 also (pass edge, target vertex). Separators of an
+//! unchanged (source, pass) pair are computed once per frame and reused for every target of the
+//! frame; tests 3 and 4 run only when the frame below has a target to test. All clips round toward
+//! visible (see [`super::poly`]).
+//!
+//! The result of a flow is the set of portals it might see that lead into a cluster it sees: a
+//! superset of the portals truly visible through the source, so later flows may narrow by it.
 
 use sightline_formats::geom::Plane;
 
@@ -179,11 +187,7 @@ impl Flow {
                 }
                 // Tests 3 and 4 narrow the source for the frame below: deferred until that frame
                 // has a target worth testing (see `narrow_source`).
-                next.narrow = false;
-                if deeper && self.level > 2 {
-                    if !clip_to_separators(&next.pass, &prev.pass, false, &mut next.source, &head.bound, tmp) { continue; }
-                    if self.level > 3 && !clip_to_separators(&prev.pass, &next.pass, true, &mut next.source, &head.bound, tmp) { continue; }
-                }
+                next.narrow = self.level > 2;
             }
             self.see(g, p.leaf);
             if deeper {

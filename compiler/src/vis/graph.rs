@@ -1,9 +1,9 @@
 //! One-way portals built from a portal file.
 //!
-//! Portal line `i` joining clusters `A` (the side its winding faces) and `B` becomes one-way
-//! portal `2i`, stored in `A` and leading to `B`, whose plane is the negated winding plane (its
-//! normal points into `B`, the neighbour it leads to), and one-way portal `2i + 1`, stored in `B`
-//! and leading to `A`, with the winding reversed and the winding plane (pointing into `A`).
+//! A portal line joining clusters `A` (the side its winding faces) and `B` becomes two consecutive
+//! one-way portals: the first stored in `A` and leading to `B`, whose plane is the negated winding
+//! plane (its normal points into `B`, the neighbour it leads to), and the second stored in `B` and
+//! leading to `A`, with the winding reversed and the winding plane (pointing into `A`).
 //! "In front of a one-way portal" therefore means "on the side of the cluster it leads to".
 //! Lines whose winding has no plane (zero area) or that join a cluster to itself pass no sight
 //! line and are dropped (counted in [`Graph::dropped`]).
@@ -103,7 +103,7 @@ impl Graph {
         self.cluster_portals.len()
     }
 
-    /// The winding points of portal `i`.
+    /// The winding points of a portal.
     #[inline]
     pub fn winding(&self, p: &OneWay) -> &[DVec3] {
         &self.points[p.start as usize..(p.start + p.len) as usize]

@@ -17,6 +17,8 @@
 //! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
 //!   [`FLOW_BATCH`]; a portal uses the final rows of portals from earlier batches only (in place
 //!   of their `mightsee`), so the output is the same for any thread count and any timing.
+//!   (Batches of one would let every portal use all earlier results, as the reference's single
+//!   thread does; on dm1 that saves under 3 % of the work, so batches cost little.)
 //! - **Resumable**: with [`VisOptions::state`], finished batches are checkpointed and a rerun
 //!   continues after them, producing the same result as an uninterrupted run.
 

@@ -82,7 +82,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         None
     };
-    let bsp = bsp_bytes.as_deref().map(bsp::read).transpose().with_context(|| args.input.display().to_string())?;
+    let bsp =
+        bsp_bytes.as_deref().map(bsp::read).transpose().with_context(|| args.input.display().to_string())?;
     let prt = read_prt(&prt_path, is_bsp)?;
     if let Some(bsp) = &bsp
         && bsp.visleafs() != prt.num_leaves as usize
@@ -258,9 +259,12 @@ pub fn ambient_levels(bsp: &Bsp, result: &VisResult) -> Vec<[u8; 4]> {
             let mut s = [false; 4];
             if let Some(leaf) = bsp.leaves.get(j + 1) {
                 let first = leaf.first_marksurface as usize;
-                let marks = bsp.marksurfaces.get(first..first + leaf.num_marksurfaces as usize).unwrap_or_default();
+                let marks =
+                    bsp.marksurfaces.get(first..first + leaf.num_marksurfaces as usize).unwrap_or_default();
                 for &m in marks {
-                    if let Some(k) = bsp.faces.get(m as usize).and_then(|f| ambient_of(bsp.face_texture_name(f))) {
+                    if let Some(k) =
+                        bsp.faces.get(m as usize).and_then(|f| ambient_of(bsp.face_texture_name(f)))
+                    {
                         s[k] = true;
                     }
                 }
@@ -288,7 +292,12 @@ pub fn ambient_levels(bsp: &Bsp, result: &VisResult) -> Vec<[u8; 4]> {
 }
 
 /// The `.bsp` bytes with our visdata, `visofs` and ambient levels.
-pub fn write_into_bsp(original: &[u8], bsp: &Bsp, result: &VisResult, rows: &Rows) -> anyhow::Result<Vec<u8>> {
+pub fn write_into_bsp(
+    original: &[u8],
+    bsp: &Bsp,
+    result: &VisResult,
+    rows: &Rows,
+) -> anyhow::Result<Vec<u8>> {
     let mut visofs: Vec<i32> = bsp.leaves.iter().map(|l| l.visofs).collect();
     for (j, &o) in rows.leaf_offsets.iter().enumerate() {
         if let Some(slot) = visofs.get_mut(j + 1) {
@@ -314,7 +323,11 @@ fn text_report(r: &Report) -> String {
         leaves = v.leaves,
         clusters = v.clusters,
         portals = v.portals,
-        dropped = if v.dropped_portals > 0 { format!(" ({} without area dropped)", v.dropped_portals) } else { String::new() },
+        dropped = if v.dropped_portals > 0 {
+            format!(" ({} without area dropped)", v.dropped_portals)
+        } else {
+            String::new()
+        },
         threads = v.threads,
         avg = v.avg_visible,
         pct = v.percent_visible,
