@@ -112,7 +112,13 @@ impl Tree {
         (out, origin)
     }
 
-    fn collapse_r(&self, i: u32, contents: &[Contents], out: &mut Vec<TreeNode>, origin: &mut Vec<u32>) -> u32 {
+    fn collapse_r(
+        &self,
+        i: u32,
+        contents: &[Contents],
+        out: &mut Vec<TreeNode>,
+        origin: &mut Vec<u32>,
+    ) -> u32 {
         let index = out.len() as u32;
         origin.push(i);
         match &self.nodes[i as usize] {
@@ -121,7 +127,8 @@ impl Tree {
             }
             TreeNode::Node { bounds, detail: true, .. } => {
                 let open = self.subtree(i).any(|j| {
-                    matches!(self.nodes[j as usize], TreeNode::Leaf { .. }) && contents[j as usize] != Contents::Solid
+                    matches!(self.nodes[j as usize], TreeNode::Leaf { .. })
+                        && contents[j as usize] != Contents::Solid
                 });
                 let c = if open { Contents::Empty } else { Contents::Solid };
                 out.push(TreeNode::Leaf { contents: c, bounds: *bounds });

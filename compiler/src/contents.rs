@@ -101,8 +101,11 @@ pub fn blocks_outside(c: Contents) -> bool {
 pub enum EntityRole {
     /// `worldspawn` and `func_group`: structural world brushes.
     World,
-    /// `func_detail` family: drawn world brushes that do not split the tree.
+    /// `func_detail` family: drawn world brushes that split the tree only after the structural
+    /// ones (their leaves share clusters); they seal the world like structural brushes.
     Detail,
+    /// `func_detail_illusionary`: drawn world faces only; not in the tree, not solid, no seal.
+    Illusionary,
     /// Any other entity with brushes: its own submodel.
     Submodel,
     /// A point entity.
@@ -113,9 +116,8 @@ pub enum EntityRole {
 pub fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
     match classname {
         "worldspawn" | "func_group" => EntityRole::World,
-        "func_detail" | "func_detail_wall" | "func_detail_illusionary" | "func_detail_fence" => {
-            EntityRole::Detail
-        }
+        "func_detail" | "func_detail_wall" | "func_detail_fence" => EntityRole::Detail,
+        "func_detail_illusionary" => EntityRole::Illusionary,
         _ if has_brushes => EntityRole::Submodel,
         _ => EntityRole::Point,
     }
@@ -143,6 +145,7 @@ mod tests {
     fn entity_roles() {
         assert_eq!(entity_role("func_group", true), EntityRole::World);
         assert_eq!(entity_role("func_detail", true), EntityRole::Detail);
+        assert_eq!(entity_role("func_detail_illusionary", true), EntityRole::Illusionary);
         assert_eq!(entity_role("func_door", true), EntityRole::Submodel);
         assert_eq!(entity_role("light", false), EntityRole::Point);
     }

@@ -4,6 +4,9 @@
 //! A's own contents (water inside water). Subtraction splits the side by B's planes with
 //! [`ON_EPSILON`]: pieces in front of any plane of B are outside B and survive.
 //!
+//! A liquid's surviving faces are also emitted facing into the liquid, so its surface shows from
+//! both sides.
+//!
 //! Coplanar sides: where A's side lies on a side of B facing the **opposite** way, the two brushes
 //! touch face to face and the side is hidden (both sides vanish). Where it lies on a side of B
 //! facing the **same** way, the two faces overlap and exactly one survives: an opaque brush's face
@@ -25,6 +28,8 @@ pub struct CsgBrush {
     pub textures: Vec<u32>,
     /// Which model the brush belongs to: brushes only hide faces of their own model.
     pub model: u32,
+    /// False for illusionary brushes: drawn, but they hide nothing.
+    pub hides: bool,
 }
 
 /// A surviving piece of a drawn side.
@@ -67,6 +72,7 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                 .filter(|(bi, b)| {
                     *bi != ai
                         && b.model == a.model
+                        && b.hides
                         && hides(b.brush.contents, a.brush.contents)
                         && b.brush.bounds.expanded(ON_EPSILON).intersects(&a.brush.bounds)
                 })
@@ -93,7 +99,16 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                         break;
                     }
                 }
+                let liquid = matches!(a.brush.contents, Contents::Water | Contents::Slime | Contents::Lava);
                 for winding in pieces {
+                    // Liquid surfaces are seen from inside the liquid too, as in Quake.
+                    let inside = liquid.then(|| CsgFace {
+                        plane: side.plane ^ 1,
+                        winding: winding.reversed(),
+                        texture,
+                        brush: ai as u32,
+                        contents: a.brush.contents,
+                    });
                     out.push(CsgFace {
                         plane: side.plane,
                         winding,
@@ -101,6 +116,7 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                         brush: ai as u32,
                         contents: a.brush.contents,
                     });
+                    out.extend(inside);
                 }
             }
             out
@@ -155,7 +171,7 @@ mod tests {
 
     fn boxb(planes: &mut PlaneSet, lo: [f64; 3], hi: [f64; 3]) -> CsgBrush {
         let b = Brush::from_box(planes, &Aabb::new(DVec3::from(lo), DVec3::from(hi)), Contents::Solid);
-        CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0 }
+        CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0, hides: true }
     }
 
     fn area(faces: &[CsgFace]) -> f64 {
@@ -209,7 +225,7 @@ mod proptests {
                     &Aabb::new(DVec3::from(lo.map(f64::from)), DVec3::from(hi.map(f64::from))),
                     Contents::Solid,
                 );
-                brushes.push(CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0 });
+                brushes.push(CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0, hides: true });
                 for x in lo[0]..hi[0] {
                     for y in lo[1]..hi[1] {
                         for z in lo[2]..hi[2] {

@@ -1,8 +1,9 @@
 //! Map → level: CSG, leafy BSP, portals, outside fill and leaks, and the emitted [`Level`].
 //!
 //! [`compile`] runs the phases in order: `csg` (brush windings, contents, face clipping), `bsp`
-//! (brush BSP of the structural world, one per submodel), `portals`, `outside` (flood from the
-//! void, leak check, fill), `emit` (level and `.prt`). Output is identical for any thread count:
+//! (brush BSP of the world, detail last; one per submodel), `portals`, `outside` (flood from the
+//! void, leak check, fill), `emit` (level and `.prt`), and `vis` when asked ([`vis`], then the
+//! rows are stored Quake-RLE per cluster by [`store_pvs`]). Output is identical for any thread count:
 //! parallel steps collect in input order and tree building uses `rayon::join` only.
 
 pub mod brush;
@@ -99,7 +100,8 @@ pub struct Stats {
     pub brushes: usize,
     /// Structural world brushes that built the tree.
     pub world_brushes: usize,
-    /// `func_detail` brushes (drawn, not in the tree).
+    /// `func_detail*` brushes: split the tree after the structural ones (clusters); illusionary
+    /// ones are drawn only.
     pub detail_brushes: usize,
     /// Brush entities with their own model.
     pub submodels: usize,

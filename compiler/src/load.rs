@@ -55,6 +55,8 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
     let mut texture_index: HashMap<String, u32> = HashMap::new();
     let mut world: Vec<CsgBrush> = Vec::new();
     let mut structural: Vec<Brush> = Vec::new();
+    // For each entry of `world`, its brush in `structural` (illusionary brushes have none).
+    let mut tree_of_world: Vec<Option<usize>> = Vec::new();
     let mut submodels: Vec<Vec<CsgBrush>> = Vec::new();
     let mut seeds = Vec::new();
     let mut entities = String::new();
@@ -82,6 +84,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
             _ => None,
         };
         if ei == 0 || matches!(role, EntityRole::Submodel | EntityRole::Point) {
+            // World, func_group and detail entities merge into the world and leave no text.
             entity_text(&mut entities, e, model);
         }
         for (bi, b) in e.brushes.iter().enumerate() {
@@ -153,30 +156,39 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                             s.used = !s.hint;
                         }
                     }
+                    tree_of_world.push(Some(structural.len()));
                     structural.push(tree_brush);
-                    world.push(CsgBrush { brush, textures: side_textures, model: 0 });
+                    world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: true });
                 }
                 EntityRole::Detail => {
                     stats.detail_brushes += 1;
                     // A hint inside func_detail makes no sense: drop it.
                     if kind != BrushKind::Hint {
+                        tree_of_world.push(Some(structural.len()));
                         structural.push(Brush { detail: true, ..brush.clone() });
-                        world.push(CsgBrush { brush, textures: side_textures, model: 0 });
+                        world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: true });
+                    }
+                }
+                EntityRole::Illusionary => {
+                    stats.detail_brushes += 1;
+                    if kind != BrushKind::Hint {
+                        tree_of_world.push(None);
+                        world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: false });
                     }
                 }
                 EntityRole::Submodel | EntityRole::Point => {
                     let m = submodels.len();
                     if let Some(list) = submodels.last_mut() {
-                        list.push(CsgBrush { brush, textures: side_textures, model: m as u32 });
+                        list.push(CsgBrush { brush, textures: side_textures, model: m as u32, hides: true });
                     }
                 }
             }
         }
     }
     let world_faces = clip_faces(&planes, &world);
-    // `structural[i]` and `world[i]` are the same brush.
     for f in &world_faces {
-        if let Some(b) = structural.get_mut(f.brush as usize) {
+        let tree_brush = tree_of_world.get(f.brush as usize).copied().flatten();
+        if let Some(b) = tree_brush.and_then(|t| structural.get_mut(t)) {
             for s in &mut b.sides {
                 if s.plane == f.plane {
                     s.visible = true;

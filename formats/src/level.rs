@@ -5,8 +5,10 @@
 //!   converts only when it emits a level).
 //! - A node's `children[0]` is the **front** side of its plane (`normal · p - dist >= 0`) and
 //!   `children[1]` the back. A child `c >= 0` is node `c`; `c < 0` is leaf `-(c + 1)` (as Quake).
-//! - Leaves with [`Contents::Solid`] have `cluster == -1`; every other leaf belongs to exactly one
-//!   cluster `0..num_clusters`. Without detail brushes each non-solid leaf is its own cluster.
+//! - Leaves with [`Contents::Solid`] have `cluster == -1`; every other leaf of the world tree
+//!   (model 0) belongs to exactly one cluster `0..num_clusters`. Leaves of brush-model subtrees
+//!   have no cluster (-1) and no PVS row. Without detail brushes each non-solid world leaf is its
+//!   own cluster.
 //! - Portal `i` joins `leaves[0]`, on the **front** of its plane, and `leaves[1]`, on the back:
 //!   the plane's normal points into `leaves[0]`, as a `.prt` winding faces into its first leaf.
 //!   Winding points are clockwise seen from the front, so the winding's own plane is `plane`.

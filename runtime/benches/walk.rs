@@ -3,7 +3,7 @@
 //! grid level. Every pose is a new eye position, so the PVS backend decodes and marks each frame.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sightline_runtime::backend::{self, Backend};
+use sightline_runtime::backend;
 use sightline_runtime::{Scratch, Visible, World, load, poses, synth};
 
 fn world() -> (String, World) {

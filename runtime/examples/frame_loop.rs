@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use sightline_runtime::backend::{self, Backend};
+use sightline_runtime::backend;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, synth};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -26,7 +26,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut drawn_faces, t0) = (0usize, Instant::now());
     for frame in 0..600 {
         let angle = frame as f32 * 0.6;
-        let offset = Vec3::new(angle.to_radians().cos(), angle.to_radians().sin(), 0.0) * start.extent.x * 0.5;
+        let offset =
+            Vec3::new(angle.to_radians().cos(), angle.to_radians().sin(), 0.0) * start.extent.x * 0.5;
         let camera = Camera::quake(centre + offset, angle, 0.0);
 
         // Movement: never walk into solid.
@@ -38,7 +39,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Drawing: leaves and their faces arrive nearest first (good for early-z).
         drawn_faces += visible.faces.len(); // submit `visible.faces` to the GPU here
         if frame % 200 == 0 {
-            println!("frame {frame}: {} leaves, {} faces, {:?}", visible.leaves.len(), visible.faces.len(), scratch.stats);
+            println!(
+                "frame {frame}: {} leaves, {} faces, {:?}",
+                visible.leaves.len(),
+                visible.faces.len(),
+                scratch.stats
+            );
         }
     }
     println!("600 frames in {:?}, {drawn_faces} faces submitted", t0.elapsed());

@@ -24,9 +24,9 @@ pub const MAX_LEAF: usize = 4;
 /// SAH bins per axis.
 const BINS: usize = 16;
 /// Cost of one node traversal relative to one triangle test.
-const TRAVERSAL_COST: f32 = 1.0;
-/// Deepest tree the traversal stack holds.
-const STACK: usize = 64;
+const TRAVERSAL_COST: f32 = 0.6;
+/// Deepest tree the traversal stack holds; the build makes a (large) leaf rather than go deeper.
+const STACK: usize = 96;
 
 /// A ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,13 +173,21 @@ impl Bvh {
         if items.is_empty() {
             root_bounds = Bounds { min: Vec3::ZERO, max: Vec3::ZERO };
         }
-        nodes.push(BuildNode { min: root_bounds.min, first: 0, max: root_bounds.max, count: items.len() as u32 });
+        nodes.push(BuildNode {
+            min: root_bounds.min,
+            first: 0,
+            max: root_bounds.max,
+            count: items.len() as u32,
+        });
         // Index permutation into `items`, partitioned in place.
         let mut perm: Vec<u32> = (0..items.len() as u32).collect();
-        let mut work = vec![0usize];
-        while let Some(ni) = work.pop() {
+        let mut work = vec![(0usize, 0usize)];
+        while let Some((ni, depth)) = work.pop() {
             let BuildNode { first, count, .. } = nodes[ni];
             let (lo, hi) = (first as usize, first as usize + count as usize);
+            if depth + 1 >= STACK {
+                continue;
+            }
             let Some(mid) = split(&items, &mut perm[lo..hi], &nodes[ni]) else {
                 continue;
             };
@@ -192,8 +200,8 @@ impl Bvh {
             }
             nodes[ni].first = left as u32;
             nodes[ni].count = 0;
-            work.push(left + 1);
-            work.push(left);
+            work.push((left + 1, depth + 1));
+            work.push((left, depth + 1));
         }
         let ids: Vec<u32> = perm.iter().map(|&k| order[k as usize]).collect();
         let tris = ids
@@ -232,7 +240,7 @@ impl Bvh {
     }
 
     fn traverse<const ANY: bool>(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        if self.ids.is_empty() || !(t_max > 0.0) {
+        if self.ids.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
         let inv = Vec3A::from(dir.recip());
@@ -240,12 +248,10 @@ impl Bvh {
         let ray = Ray::new(origin, dir);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
-        let mut stack = [0u32; STACK];
+        let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0usize;
         let mut ni = 0usize;
-        if box_hit(&self.nodes[0], o, inv, t_best).is_none() {
-            return None;
-        }
+        box_hit(&self.nodes[0], o, inv, t_best)?;
         loop {
             let node = &self.nodes[ni];
             if node.count() > 0 {
@@ -266,8 +272,9 @@ impl Bvh {
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
                         let (near, far) = if a <= b { (l, l + 1) } else { (l + 1, l) };
+                        // The build keeps the tree shallower than the stack.
                         if sp < STACK {
-                            stack[sp] = far as u32;
+                            stack[sp] = (far as u32, a.max(b));
                             sp += 1;
                         }
                         ni = near;
@@ -290,9 +297,9 @@ impl Bvh {
                     return best;
                 }
                 sp -= 1;
-                let cand = stack[sp] as usize;
-                if box_hit(&self.nodes[cand], o, inv, t_best).is_some() {
-                    ni = cand;
+                let (cand, t_enter) = stack[sp];
+                if t_enter <= t_best {
+                    ni = cand as usize;
                     break;
                 }
             }
@@ -315,7 +322,7 @@ fn split(items: &[Item], perm: &mut [u32], node: &BuildNode) -> Option<usize> {
     let mut best: Option<(f32, usize, usize)> = None; // cost, axis, split bin
     for axis in 0..3 {
         let ext = extent[axis];
-        if !(ext > 0.0) {
+        if ext.is_nan() || ext <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / ext;

@@ -207,7 +207,12 @@ mod tests {
 
     #[test]
     fn camera_frustum_matches_matrix_frustum() {
-        let cam = Camera { position: Vec3::new(10.0, -20.0, 30.0), yaw: 30.0, pitch: 10.0, ..Camera::quake(Vec3::ZERO, 0.0, 0.0) };
+        let cam = Camera {
+            position: Vec3::new(10.0, -20.0, 30.0),
+            yaw: 30.0,
+            pitch: 10.0,
+            ..Camera::quake(Vec3::ZERO, 0.0, 0.0)
+        };
         let (f, r, u) = cam.basis();
         let eye = Vec3A::from(cam.position);
         // Right-handed view (looking down -Z) and a 0..1-depth perspective, written out.
@@ -228,7 +233,12 @@ mod tests {
         let a = Frustum::from_camera(&cam);
         let b = Frustum::from_view_projection(proj * view, ClipDepth::ZeroToOne);
         for i in 0..6 {
-            assert!(a.normals[i].dot(b.normals[i]) > 0.9999, "plane {i}: {:?} vs {:?}", a.normals[i], b.normals[i]);
+            assert!(
+                a.normals[i].dot(b.normals[i]) > 0.9999,
+                "plane {i}: {:?} vs {:?}",
+                a.normals[i],
+                b.normals[i]
+            );
             assert!((a.dists[i] - b.dists[i]).abs() < 0.05 * a.dists[i].abs().max(1.0), "plane {i}");
         }
         let ahead = Vec3A::from(cam.position) + f * 100.0;
@@ -241,9 +251,15 @@ mod tests {
         let cam = Camera::quake(Vec3::ZERO, 0.0, 0.0);
         let fr = cam.view().frustum;
         // A small box straight ahead is inside every plane.
-        assert_eq!(fr.test_box(Vec3A::new(100.0, 0.0, 0.0), Vec3A::splat(1.0), Frustum::ALL), BoxSide::Inside(0));
+        assert_eq!(
+            fr.test_box(Vec3A::new(100.0, 0.0, 0.0), Vec3A::splat(1.0), Frustum::ALL),
+            BoxSide::Inside(0)
+        );
         // Behind the eye: outside.
-        assert_eq!(fr.test_box(Vec3A::new(-100.0, 0.0, 0.0), Vec3A::splat(1.0), Frustum::ALL), BoxSide::Outside);
+        assert_eq!(
+            fr.test_box(Vec3A::new(-100.0, 0.0, 0.0), Vec3A::splat(1.0), Frustum::ALL),
+            BoxSide::Outside
+        );
         // Around the eye: crosses the side planes and the near plane.
         match fr.test_box(Vec3A::ZERO, Vec3A::splat(10.0), Frustum::ALL) {
             BoxSide::Inside(mask) => assert_eq!(mask & 0x1f, 0x1f),

@@ -10,8 +10,11 @@ use crate::world::{LeafId, World};
 /// shared by several parents (Quake's solid leaf 0) has one region per path.
 #[derive(Debug, Clone)]
 pub struct LeafRegions {
-    regions: Vec<(LeafId, Vec<(Vec3A, f32, bool)>)>,
+    regions: Vec<(LeafId, Vec<HalfSpace>)>,
 }
+
+/// One constraint of a leaf region: `(normal, dist, front)`.
+pub type HalfSpace = (Vec3A, f32, bool);
 
 impl LeafRegions {
     /// Collect the regions (depth-first from the world root).
@@ -25,7 +28,7 @@ impl LeafRegions {
             }
             let Some(node) = world.nodes.get(child as usize) else { continue };
             for (k, &c) in node.children.iter().enumerate() {
-                let mut p: Vec<(Vec3A, f32, bool)> = path.clone();
+                let mut p: Vec<HalfSpace> = path.clone();
                 p.push((node.normal, node.dist, k == 0));
                 stack.push((c, p));
             }
@@ -72,7 +75,12 @@ pub fn sampled_leaves(world: &World, from: Vec3A, to: Vec3A, samples: usize) -> 
 /// to its box centre; every other output leaf crossed on the way (in the open part before the
 /// segment first meets solid) occludes-or-precedes it and must come earlier in the list. Returns
 /// the violating `(earlier-in-list, later-in-list)` pairs.
-pub fn order_violations(world: &World, eye: Vec3A, leaves: &[LeafId], samples: usize) -> Vec<(LeafId, LeafId)> {
+pub fn order_violations(
+    world: &World,
+    eye: Vec3A,
+    leaves: &[LeafId],
+    samples: usize,
+) -> Vec<(LeafId, LeafId)> {
     let mut position = std::collections::HashMap::new();
     for (i, &l) in leaves.iter().enumerate() {
         position.insert(l, i);

@@ -159,7 +159,11 @@ pub unsafe extern "C" fn sl_world_load_file(path: *const c_char, out: *mut *mut 
 /// # Safety
 /// `data` must point to `len` readable bytes and `out` to writable storage.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn sl_world_load_bytes(data: *const u8, len: usize, out: *mut *mut SlWorld) -> SlStatus {
+pub unsafe extern "C" fn sl_world_load_bytes(
+    data: *const u8,
+    len: usize,
+    out: *mut *mut SlWorld,
+) -> SlStatus {
     guard(|| {
         if data.is_null() || out.is_null() {
             set_error("null argument".to_string());
@@ -198,10 +202,15 @@ pub unsafe extern "C" fn sl_world_num_leaves(world: *const SlWorld) -> u32 {
 /// # Safety
 /// `world` must be a live world, `position` 3 readable floats, `out_leaf` writable.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn sl_leaf_at(world: *const SlWorld, position: *const f32, out_leaf: *mut u32) -> SlStatus {
+pub unsafe extern "C" fn sl_leaf_at(
+    world: *const SlWorld,
+    position: *const f32,
+    out_leaf: *mut u32,
+) -> SlStatus {
     guard(|| {
         // SAFETY: null or live/readable/writable per the contract.
-        let (Some(w), Some(p), Some(out)) = (unsafe { world.as_ref() }, unsafe { read3(position) }, unsafe { out_leaf.as_mut() })
+        let (Some(w), Some(p), Some(out)) =
+            (unsafe { world.as_ref() }, unsafe { read3(position) }, unsafe { out_leaf.as_mut() })
         else {
             set_error("null argument".to_string());
             return SL_ERR_NULL;
@@ -216,11 +225,18 @@ pub unsafe extern "C" fn sl_leaf_at(world: *const SlWorld, position: *const f32,
 /// # Safety
 /// `world` must be a live world, `from`/`to` 3 readable floats each, `out` writable.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn sl_trace(world: *const SlWorld, from: *const f32, to: *const f32, out: *mut SlTrace) -> SlStatus {
+pub unsafe extern "C" fn sl_trace(
+    world: *const SlWorld,
+    from: *const f32,
+    to: *const f32,
+    out: *mut SlTrace,
+) -> SlStatus {
     guard(|| {
         // SAFETY: null or live/readable/writable per the contract.
         let (Some(w), Some(a), Some(b), Some(out)) =
-            (unsafe { world.as_ref() }, unsafe { read3(from) }, unsafe { read3(to) }, unsafe { out.as_mut() })
+            (unsafe { world.as_ref() }, unsafe { read3(from) }, unsafe { read3(to) }, unsafe {
+                out.as_mut()
+            })
         else {
             set_error("null argument".to_string());
             return SL_ERR_NULL;
@@ -234,7 +250,14 @@ pub unsafe extern "C" fn sl_trace(world: *const SlWorld, from: *const f32, to: *
                 normal: h.normal.to_array(),
                 leaf: h.leaf,
             },
-            None => SlTrace { hit: 0, start_solid: 0, fraction: 1.0, point: b.to_array(), normal: [0.0; 3], leaf: 0 },
+            None => SlTrace {
+                hit: 0,
+                start_solid: 0,
+                fraction: 1.0,
+                point: b.to_array(),
+                normal: [0.0; 3],
+                leaf: 0,
+            },
         };
         SL_OK
     })
@@ -284,7 +307,9 @@ pub unsafe extern "C" fn sl_visible_leaves(
     guard(|| {
         // SAFETY: null or live/readable/writable per the contract.
         let (Some(w), Some(s), Some(cam), Some(count)) =
-            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() }, unsafe { out_count.as_mut() })
+            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() }, unsafe {
+                out_count.as_mut()
+            })
         else {
             set_error("null argument".to_string());
             return SL_ERR_NULL;

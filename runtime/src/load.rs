@@ -74,11 +74,11 @@ pub fn add_prt_portals(level: &mut Level, prt: &PortalFile) -> Result<(), LoadEr
         return Err(LoadError::Prt(format!("{} portal leaves for {visleafs} BSP leaves", prt.num_leaves)));
     }
     for (i, p) in prt.portals.iter().enumerate() {
-        let plane = p.winding.plane().ok_or_else(|| LoadError::Prt(format!("portal {i} has a degenerate winding")))?;
-        level.planes.push(LevelPlane {
-            normal: plane.normal.as_vec3().to_array(),
-            dist: plane.dist as f32,
-        });
+        let plane = p
+            .winding
+            .plane()
+            .ok_or_else(|| LoadError::Prt(format!("portal {i} has a degenerate winding")))?;
+        level.planes.push(LevelPlane { normal: plane.normal.as_vec3().to_array(), dist: plane.dist as f32 });
         let first_vertex = level.vertices.len() as u32;
         level.vertices.extend(p.winding.points.iter().map(|v| v.as_vec3().to_array()));
         level.portals.push(Portal {

@@ -9,11 +9,17 @@ use sightline_formats::rle;
 /// until each leaf is one cell; every open cell is its own cluster, gets one wall face per side
 /// that touches rock or the grid's border, and one portal per open neighbour. With `vis`, every
 /// cluster's PVS row holds every cluster (a trivially conservative PVS).
-pub fn grid_level(dims: [usize; 3], cell: f32, vis: bool, solid: impl Fn(usize, usize, usize) -> bool) -> Level {
+pub fn grid_level(
+    dims: [usize; 3],
+    cell: f32,
+    vis: bool,
+    solid: impl Fn(usize, usize, usize) -> bool,
+) -> Level {
     let mut level = Level { textures: vec!["wall".to_string()], ..Level::default() };
     let index = |x: usize, y: usize, z: usize| (z * dims[1] + y) * dims[0] + x;
     let count = dims[0] * dims[1] * dims[2];
-    let is_solid: Vec<bool> = (0..count).map(|i| solid(i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]))).collect();
+    let is_solid: Vec<bool> =
+        (0..count).map(|i| solid(i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]))).collect();
     let mut cluster_of = vec![-1i32; count];
     let mut clusters = 0;
     for (i, s) in is_solid.iter().enumerate() {
@@ -124,7 +130,13 @@ fn add_quad(level: &mut Level, mins: [f32; 3], maxs: [f32; 3], axis: usize, low:
 }
 
 /// Split the cell range `lo..hi` (per axis) into a subtree; returns its child code.
-fn build(level: &mut Level, lo: [usize; 3], hi: [usize; 3], cell: f32, index: &dyn Fn(usize, usize, usize) -> usize) -> i32 {
+fn build(
+    level: &mut Level,
+    lo: [usize; 3],
+    hi: [usize; 3],
+    cell: f32,
+    index: &dyn Fn(usize, usize, usize) -> usize,
+) -> i32 {
     let size = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
     if size.iter().all(|&s| s == 1) {
         return -(index(lo[0], lo[1], lo[2]) as i32) - 1;

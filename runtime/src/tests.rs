@@ -68,7 +68,10 @@ fn trace_agrees_with_sampling() {
             (Some(hit), Some((t, leaf))) => {
                 hits += 1;
                 assert!(!hit.start_solid);
-                assert!((hit.fraction - t).abs() <= step + 0.04 / len, "trace {hit:?} vs sampled {t} (len {len})");
+                assert!(
+                    (hit.fraction - t).abs() <= step + 0.04 / len,
+                    "trace {hit:?} vs sampled {t} (len {len})"
+                );
                 assert_eq!(hit.leaf, leaf);
                 assert!((hit.normal.length() - 1.0).abs() < 1e-4);
                 assert!(hit.normal.dot(b - a) < 0.0, "normal faces the segment's start");
@@ -132,11 +135,15 @@ fn walk_allocates_nothing_after_warm_up() {
     let mut scratch = Scratch::new(&world);
     let mut out = Visible::for_world(&world);
     let cams = random_cameras(&world, 9, 200);
-    let caps = (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity());
+    let caps =
+        (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity());
     for cam in &cams {
         Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
     }
-    assert_eq!(caps, (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity()));
+    assert_eq!(
+        caps,
+        (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity())
+    );
 }
 
 #[test]
@@ -163,7 +170,11 @@ fn portal_backend_hides_the_room_around_the_corner() {
     Portal.cull(&world, &cam.view(), &mut scratch, &mut portal);
     let far_arm = |l: &u32| (*l as usize / 8) >= 3;
     assert!(pvs.leaves.iter().any(far_arm), "the all-visible PVS includes the far arm");
-    assert!(!portal.leaves.iter().any(far_arm), "portal search reached around the corner: {:?}", portal.leaves);
+    assert!(
+        !portal.leaves.iter().any(far_arm),
+        "portal search reached around the corner: {:?}",
+        portal.leaves
+    );
     assert!(portal.leaves.len() >= 8, "the straight corridor is visible: {:?}", portal.leaves);
     assert!(order_violations(&world, cam.view().eye, &portal.leaves, 512).is_empty());
 }
@@ -297,4 +308,21 @@ fn mutate(level: &mut Level, rng: &mut SplitMix64) {
         11 if !level.models.is_empty() => level.models[0].head_node = v as i32,
         _ => level.models.clear(),
     }
+}
+
+#[test]
+fn world_is_shareable_and_scratch_follows_the_world() {
+    fn shareable<T: Send + Sync>() {}
+    shareable::<World>();
+    let small = World::new(&l_bend()).expect("valid");
+    let big = World::new(&pillars(6)).expect("valid");
+    let mut scratch = Scratch::new(&small);
+    let mut out = Visible::default();
+    let cam = random_cameras(&big, 4, 1)[0];
+    // A scratch made for another world resizes itself and gives the same answer as a fresh one.
+    Pvs.cull(&big, &cam.view(), &mut scratch, &mut out);
+    let mut fresh = Visible::default();
+    Pvs.cull(&big, &cam.view(), &mut Scratch::new(&big), &mut fresh);
+    assert_eq!(out, fresh);
+    assert!(!out.leaves.is_empty());
 }

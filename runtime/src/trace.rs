@@ -52,7 +52,14 @@ impl World {
 
     /// The first solid leaf in `child` for the part `t0..t1` of the segment: `(t, entry normal,
     /// leaf)`. `entry` is the normal of the plane through which this part was entered.
-    fn trace_rec(&self, child: i32, t0: f32, t1: f32, entry: Vec3A, seg: &Seg) -> Option<(f32, Vec3A, LeafId)> {
+    fn trace_rec(
+        &self,
+        child: i32,
+        t0: f32,
+        t1: f32,
+        entry: Vec3A,
+        seg: &Seg,
+    ) -> Option<(f32, Vec3A, LeafId)> {
         if child < 0 {
             let leaf = (!child) as LeafId;
             let solid = self.leaves.get(leaf as usize).is_some_and(|l| !l.contents.is_open());
@@ -71,7 +78,8 @@ impl World {
         // The part crosses the plane (or a value is NaN: then both halves are searched).
         let s = d0 / (d0 - d1);
         let tm = if s.is_finite() { (t0 + (t1 - t0) * s).clamp(t0, t1) } else { t0 };
-        let (near, far, normal) = if d0 >= 0.0 { (front, back, node.normal) } else { (back, front, -node.normal) };
+        let (near, far, normal) =
+            if d0 >= 0.0 { (front, back, node.normal) } else { (back, front, -node.normal) };
         self.trace_rec(near, t0, tm, entry, seg).or_else(|| self.trace_rec(far, tm, t1, normal, seg))
     }
 }

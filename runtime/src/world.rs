@@ -171,10 +171,13 @@ impl World {
                 });
             }
             let open = leaf.contents.is_open();
-            if open && (!finite(leaf.mins) || !finite(leaf.maxs) || vec(leaf.mins).cmpgt(vec(leaf.maxs)).any()) {
+            if open
+                && (!finite(leaf.mins) || !finite(leaf.maxs) || vec(leaf.mins).cmpgt(vec(leaf.maxs)).any())
+            {
                 return Err(LoadError::BadBounds { owner: "leaf", index: i });
             }
-            let (mins, maxs) = if open { (vec(leaf.mins), vec(leaf.maxs)) } else { (Vec3A::ZERO, Vec3A::ZERO) };
+            let (mins, maxs) =
+                if open { (vec(leaf.mins), vec(leaf.maxs)) } else { (Vec3A::ZERO, Vec3A::ZERO) };
             let b = Bounds::from_min_max(mins, maxs);
             leaves.push(WLeaf {
                 center: b.center,
@@ -200,9 +203,12 @@ impl World {
         // Nodes.
         let mut nodes = Vec::with_capacity(level.nodes.len());
         for (i, node) in level.nodes.iter().enumerate() {
-            let plane = planes
-                .get(node.plane as usize)
-                .ok_or(LoadError::Index { what: "plane", owner: "node", index: i, value: u64::from(node.plane) })?;
+            let plane = planes.get(node.plane as usize).ok_or(LoadError::Index {
+                what: "plane",
+                owner: "node",
+                index: i,
+                value: u64::from(node.plane),
+            })?;
             for c in node.children {
                 if decode_child(c, level.nodes.len(), level.leaves.len()).is_none() {
                     return Err(LoadError::Index { what: "child", owner: "node", index: i, value: c as u64 });
@@ -497,21 +503,30 @@ fn build_portals(level: &Level, num_leaves: usize) -> Result<PortalTables, LoadE
     let mut vertices = Vec::new();
     let mut counts = vec![0u32; num_leaves + 1];
     for (i, p) in level.portals.iter().enumerate() {
-        let plane = level
-            .planes
-            .get(p.plane as usize)
-            .ok_or(LoadError::Index { what: "plane", owner: "portal", index: i, value: u64::from(p.plane) })?;
+        let plane = level.planes.get(p.plane as usize).ok_or(LoadError::Index {
+            what: "plane",
+            owner: "portal",
+            index: i,
+            value: u64::from(p.plane),
+        })?;
         for l in p.leaves {
             if l as usize >= num_leaves {
-                return Err(LoadError::Index { what: "leaf", owner: "portal", index: i, value: u64::from(l) });
+                return Err(LoadError::Index {
+                    what: "leaf",
+                    owner: "portal",
+                    index: i,
+                    value: u64::from(l),
+                });
             }
         }
         let start = p.first_vertex as usize;
         let end = start as u64 + u64::from(p.num_vertices);
-        let pts = level
-            .vertices
-            .get(start..end.min(usize::MAX as u64) as usize)
-            .ok_or(LoadError::Index { what: "vertices", owner: "portal", index: i, value: end })?;
+        let pts = level.vertices.get(start..end.min(usize::MAX as u64) as usize).ok_or(LoadError::Index {
+            what: "vertices",
+            owner: "portal",
+            index: i,
+            value: end,
+        })?;
         if pts.len() < 3 || pts.iter().any(|v| !finite(*v)) {
             return Err(LoadError::BadPortal { index: i });
         }
@@ -568,7 +583,8 @@ fn validate_pvs(level: &Level) -> Result<(usize, Vec<u32>), LoadError> {
             index: c,
             value: u64::from(off),
         })?;
-        rle::decode_row(data, row_bytes, &mut row).map_err(|source| LoadError::PvsRow { cluster: c, source })?;
+        rle::decode_row(data, row_bytes, &mut row)
+            .map_err(|source| LoadError::PvsRow { cluster: c, source })?;
     }
     Ok((row_bytes, level.pvs_offsets.clone()))
 }

@@ -193,5 +193,52 @@ fn detail_brushes_group_leaves_into_clusters() {
         level.num_clusters
     );
     assert_eq!(out.prt.format, sightline_formats::prt::PrtFormat::Prt2);
-    assert!(level.leaves.iter().any(|l| l.contents == sightline_formats::Contents::Water));
+    let water =
+        level.leaves.iter().find(|l| l.contents == sightline_formats::Contents::Water).expect("water leaf");
+    // The water surface is drawn from inside the water too.
+    let faces = &level.leaf_faces[water.first_face as usize..(water.first_face + water.num_faces) as usize];
+    assert!(
+        faces.iter().any(|&f| level.textures[level.faces[f as usize].texture as usize].starts_with('*')),
+        "the water leaf lists a water face"
+    );
+}
+
+/// A sealed 256-unit room made of six 16-unit walls, as map text (no closing brace of worldspawn).
+fn room_world() -> String {
+    let mut s = String::from("{\n\"classname\" \"worldspawn\"\n");
+    s += &box_brush([-16, -16, -16], [272, 272, 0]);
+    s += &box_brush([-16, -16, 256], [272, 272, 272]);
+    s += &box_brush([-16, -16, 0], [0, 272, 256]);
+    s += &box_brush([256, -16, 0], [272, 272, 256]);
+    s += &box_brush([0, -16, 0], [256, 0, 256]);
+    s += &box_brush([0, 256, 0], [256, 272, 256]);
+    s
+}
+
+#[test]
+fn brush_entities_become_submodels_and_hints_split_first() {
+    let mut text = room_world();
+    // A hint brush across the room: its `hint` side at x = 144 must be the first split.
+    let hint = box_brush([128, 0, 0], [144, 256, 256]).replace("wall", "skip").replacen(
+        "( 144 0 0 ) ( 144 0 256 ) ( 144 256 0 ) skip",
+        "( 144 0 0 ) ( 144 0 256 ) ( 144 256 0 ) hint",
+        1,
+    );
+    assert!(hint.contains("hint"));
+    text += &hint;
+    text += "}\n";
+    text += &format!("{{\n\"classname\" \"func_door\"\n{}}}\n", box_brush([32, 32, 0], [64, 64, 64]));
+    text += "{\n\"classname\" \"info_player_start\"\n\"origin\" \"200 200 24\"\n}\n";
+    let map = sightline_formats::map::parse(&text, "sub.map").expect("parses");
+    let out = compile(&Source::Map { map, file: "sub.map".into() }, &CompileOptions::default(), &NoProgress)
+        .expect("compiles");
+    let level = &out.level;
+    assert_eq!(level.models.len(), 2);
+    assert!(level.models[1].num_faces == 6, "the door keeps its six faces");
+    assert!(level.entities.contains("\"model\" \"*1\""), "{}", level.entities);
+    let root = &level.nodes[level.models[0].head_node as usize];
+    let plane = &level.planes[root.plane as usize];
+    assert_eq!((plane.normal, plane.dist), ([1.0, 0.0, 0.0], 144.0), "the hint plane splits first");
+    // The door is not part of the world: the world has one open region split only by the hint.
+    assert_eq!(out.stats.vis_leaves, 2);
 }

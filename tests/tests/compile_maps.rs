@@ -145,6 +145,10 @@ fn representative_real_maps_compile_sealed_with_a_sound_portal_graph() {
             assert!(out.prt.portals.len() < out.level.portals.len());
             assert_eq!(out.prt.leaf_clusters.len() as u32, out.prt.num_leaves);
         }
+        let text = sightline_formats::prt::write(&out.prt);
+        let back = sightline_formats::prt::read(&text, name).expect("our .prt reads back");
+        assert_eq!(back.portals.len(), out.prt.portals.len());
+        assert_eq!(back.leaf_clusters, out.prt.leaf_clusters);
         for p in &out.prt.portals {
             assert!(p.leaves.iter().all(|&l| l < out.prt.num_leaves));
             assert!(p.winding.is_valid(0.05), "non-convex or non-planar portal winding");

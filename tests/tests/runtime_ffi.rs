@@ -53,7 +53,8 @@ int main(int argc, char **argv) {
 fn library(tmp: &Path) -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
     let dir = exe.parent()?;
-    let name = if cfg!(target_os = "macos") { "libsightline_runtime.dylib" } else { "libsightline_runtime.so" };
+    let name =
+        if cfg!(target_os = "macos") { "libsightline_runtime.dylib" } else { "libsightline_runtime.so" };
     let src = [dir.join(name), dir.join("..").join(name)].into_iter().find(|p| p.is_file())?;
     let dst = tmp.join(name);
     std::fs::copy(&src, &dst).ok()?;
@@ -118,7 +119,12 @@ fn c_program_agrees_with_the_rust_api() {
             .args([eye.x, eye.y, eye.z].map(|v| v.to_string()))
             .output()
             .expect("run the C program");
-        assert!(run.status.success(), "C program failed ({:?}): {}", run.status, String::from_utf8_lossy(&run.stderr));
+        assert!(
+            run.status.success(),
+            "C program failed ({:?}): {}",
+            run.status,
+            String::from_utf8_lossy(&run.stderr)
+        );
         let got = String::from_utf8_lossy(&run.stdout).to_string();
         assert_eq!(got, expected(&world, eye), "{}", path.display());
         assert!(got.lines().nth(2).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");

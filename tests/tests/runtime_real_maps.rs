@@ -42,7 +42,11 @@ fn leaf_at_agrees_with_brute_force_on_real_maps() {
         let (lo, hi) = world_box(&world);
         let mut rng = SplitMix64::new(17);
         for i in 0..1500 {
-            let p = if i % 2 == 0 { rng.point_in(lo, hi) } else { random_open_point(&world, &mut rng).expect("open") };
+            let p = if i % 2 == 0 {
+                rng.point_in(lo, hi)
+            } else {
+                random_open_point(&world, &mut rng).expect("open")
+            };
             assert_eq!(regions.leaves_at(p), vec![world.leaf_at(p)], "{name}: point {p:?}");
         }
     }
@@ -80,7 +84,9 @@ fn trace_agrees_with_sampling_on_real_maps() {
                     assert!(solid(h.leaf));
                     thin += 1;
                 }
-                (None, Some((t, leaf))) => panic!("{name}: trace missed solid leaf {leaf} sampled at {t} on {a:?} -> {b:?}"),
+                (None, Some((t, leaf))) => {
+                    panic!("{name}: trace missed solid leaf {leaf} sampled at {t} on {a:?} -> {b:?}")
+                }
             }
         }
         assert!(thin * 20 <= agree, "{name}: {thin} thin hits vs {agree} agreeing");
@@ -109,7 +115,10 @@ fn portal_backend_stays_inside_pvs_and_frustum() {
             views += 1;
         }
         assert!(views >= 2400);
-        assert!(sum_portal * 10 < sum_pvs * 9, "{name}: portal {sum_portal} vs PVS {sum_pvs}: portals should cull more");
+        assert!(
+            sum_portal * 10 < sum_pvs * 9,
+            "{name}: portal {sum_portal} vs PVS {sum_pvs}: portals should cull more"
+        );
     }
 }
 
@@ -123,7 +132,11 @@ fn walk_is_front_to_back_on_real_maps() {
             let backend: &dyn Backend = if i % 2 == 0 { &Pvs } else { &Portal };
             backend.cull(&world, &view, &mut scratch, &mut out);
             let bad = order_violations(&world, view.eye, &out.leaves, 256);
-            assert!(bad.is_empty(), "{name} ({}): leaves drawn before leaves in front of them: {bad:?}", backend.name());
+            assert!(
+                bad.is_empty(),
+                "{name} ({}): leaves drawn before leaves in front of them: {bad:?}",
+                backend.name()
+            );
         }
     }
 }

@@ -194,3 +194,48 @@ fn detection_rate_on_portal_adjacent_pairs() {
     assert!(rates.windows(2).all(|w| w[0] <= w[1]));
     assert!(rates[rates.len() - 1] >= 0.97, "detection rate on adjacent pairs {rates:?}");
 }
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let Some(path) = ericw("dm1.vis.bsp") else { return };
+    let level = load::load_level(&path).unwrap();
+    let mut pvs = level_pvs(&level).unwrap();
+    // A few removed pairs so that misses (and their segments) are compared too.
+    let opts = Options { rays: 600_000, oracle: OracleChoice::Both, ..Options::default() };
+    let first = validate(&level, &pvs, &opts).unwrap();
+    for (a, b) in proved_pairs(&pvs, first.sampled[0].last().unwrap(), 5, 11) {
+        pvs.clear(a, b);
+    }
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| validate(&level, &pvs, &opts).unwrap())
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.sampled, two.sampled);
+    let json = |v: &sightline::validate::Validation| {
+        v.report
+            .oracles
+            .iter()
+            .map(|o| serde_json::to_string(&(&o.misses, &o.coverage)).unwrap())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(json(&one), json(&two));
+    assert_eq!(one.report.misses(), 10, "5 removed pairs, found by both oracles");
+}
+
+#[test]
+fn validation_code_never_uses_the_compiler() {
+    let dir = sightline_tests::workspace_root().join("tools/src/validate");
+    let mut files = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            !text.contains("sightline_compiler") && !text.contains("compiler::"),
+            "{} uses the compiler",
+            path.display()
+        );
+        files += 1;
+    }
+    assert!(files >= 8, "found only {files} validator files");
+}

@@ -24,7 +24,8 @@ fn ericw(name: &str) -> Option<PathBuf> {
 
 fn portal_file(name: &str) -> Option<PortalFile> {
     let path = ericw(name)?;
-    Some(prt::read(&std::fs::read_to_string(&path).unwrap(), name).unwrap())
+    let text = std::fs::read_to_string(&path).expect("read .prt");
+    Some(prt::read(&text, name).expect("parse .prt"))
 }
 
 /// Every leaf's uncompressed row, back to back.
@@ -40,7 +41,7 @@ fn leaf_rows(r: &VisResult) -> Vec<u8> {
 
 fn temp_dir(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("sightline-vis-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
 
@@ -90,8 +91,8 @@ fn resumed_run_equals_uninterrupted_run() {
 
 /// Total visible leaf pairs stored in a BSP.
 fn bsp_pairs(path: &Path) -> u64 {
-    let b = bsp::read(&std::fs::read(path).unwrap()).unwrap();
-    let s = b.pvs_stats().unwrap().unwrap();
+    let b = bsp::read(&std::fs::read(path).expect("read .bsp")).expect("parse .bsp");
+    let s = b.pvs_stats().expect("decode rows").expect("vis leaves");
     (s.avg_visible * s.visleafs as f64).round() as u64
 }
 

@@ -44,6 +44,9 @@ struct Frame {
     source: Poly,
     pass: Poly,
     might: Vec<u64>,
+    /// Words of `might` outside `lo..hi` are zero (and not stored).
+    lo: usize,
+    hi: usize,
     /// Separators of (`source`, `pass`): normal order then flipped order.
     seps: [Vec<Plane>; 2],
     seps_ready: bool,
@@ -112,6 +115,8 @@ impl Flow {
         f.source.load(g.winding(p));
         f.pass.n = 0;
         f.might.copy_from_slice(&test[base * self.words..(base + 1) * self.words]);
+        f.lo = f.might.iter().position(|&w| w != 0).unwrap_or(0);
+        f.hi = f.might.iter().rposition(|&w| w != 0).map_or(0, |w| w + 1);
         f.seps_ready = false;
         f.narrow = false;
         let head = Head { plane: p.plane, bound: Sphere { center: p.center, radius: p.radius } };
@@ -131,7 +136,8 @@ impl Flow {
         let leaf = self.frames[d].leaf as usize;
         for &pi in &g.cluster_portals[leaf] {
             let pi = pi as usize;
-            if !bits::get(&self.frames[d].might, pi) {
+            let here = &self.frames[d];
+            if !(here.lo..here.hi).contains(&(pi >> 6)) || !bits::get(&here.might, pi) {
                 continue;
             }
             let p = &g.portals[pi];
@@ -139,10 +145,22 @@ impl Flow {
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
             let mut more = 0u64;
-            for ((m, (&a, &b)), &v) in next.might.iter_mut().zip(prev.might.iter().zip(trow)).zip(&self.vis) {
+            let (mut first, mut last) = (prev.hi, prev.lo);
+            let range = prev.lo..prev.hi;
+            let words_in = next.might[range.clone()]
+                .iter_mut()
+                .zip(&prev.might[range.clone()])
+                .zip(&trow[range.clone()])
+                .zip(&self.vis[range.clone()]);
+            for (w, (((m, &a), &b), &v)) in range.zip(words_in) {
                 *m = a & b;
                 more |= *m & !v;
+                if *m != 0 {
+                    first = first.min(w);
+                    last = w + 1;
+                }
             }
+            (next.lo, next.hi) = if first < last { (first, last) } else { (0, 0) };
             // Nothing new beyond `p`: only whether `p` itself is visible is left to decide.
             let deeper = more != 0;
             if !deeper && bits::get(&self.seen, p.leaf as usize) {

@@ -94,11 +94,12 @@ impl Poly {
     /// `tmp` is scratch space.
     pub fn clip(&mut self, plane: &Plane, eps: f64, tmp: &mut Poly) -> Clip {
         let n = self.n;
+        let mut dist = [0.0f64; CAP];
         let (mut front, mut back) = (false, false);
-        for q in &self.p[..n] {
-            let d = plane.distance(*q) + eps;
-            front |= d > 0.0;
-            back |= d < 0.0;
+        for (d, q) in dist.iter_mut().zip(&self.p[..n]) {
+            *d = plane.distance(*q) + eps;
+            front |= *d > 0.0;
+            back |= *d < 0.0;
         }
         if !back {
             return Clip::Whole;
@@ -108,12 +109,10 @@ impl Poly {
             return Clip::Gone;
         }
         let mut out = 0usize;
-        let d0 = plane.distance(self.p[0]) + eps;
-        let mut di = d0;
         for i in 0..n {
             let pi = self.p[i];
             let j = if i + 1 == n { 0 } else { i + 1 };
-            let dj = if j == 0 { d0 } else { plane.distance(self.p[j]) + eps };
+            let (di, dj) = (dist[i], dist[j]);
             if di >= 0.0 {
                 if out == CAP {
                     return Clip::Whole;
@@ -129,7 +128,6 @@ impl Poly {
                 tmp.p[out] = pi + (self.p[j] - pi) * t;
                 out += 1;
             }
-            di = dj;
         }
         if out < 3 {
             self.n = 0;
@@ -146,8 +144,9 @@ impl Poly {
 ///
 /// For each edge of `a`, the planes through it form a pencil; seen along the edge, `a` is a ray
 /// and `b` a set of directions. The separating plane is the one through the vertex of `b` turned
-/// farthest toward `a`'s outside, so one pass over `b` finds it (the reference tools try every
-/// vertex and test each plane against both windings). The plane is kept only when all of `a` is
+/// farthest toward `a`'s outside, so one pass over `b` finds it; the reference tools try every
+/// vertex and test each plane against both windings. (Another separating plane exists only when
+/// `b` crosses `a`'s plane; skipping it keeps more.) The plane is kept only when all of `a` is
 /// behind (none beyond `+SEPARATOR_EPSILON`, some beyond `-SEPARATOR_EPSILON`) and all of `b` in
 /// front (none beyond `-SEPARATOR_EPSILON`, some beyond `+SEPARATOR_EPSILON`). Skipping a plane is
 /// always safe: it only keeps more.
@@ -166,46 +165,44 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
     let Some(mut y) = newell.try_normalize() else { return };
     let ca = a_pts.iter().copied().sum::<DVec3>() / an as f64;
     let cb = b_pts.iter().copied().sum::<DVec3>() / bn as f64;
-    if (cb - ca).dot(y) < 0.0 {
+    // Newell's normal turns the points counter-clockwise, so `edge × normal` points out of `a`;
+    // facing `y` toward `b` may flip that.
+    let outward = if (cb - ca).dot(y) < 0.0 {
         y = -y;
+        -1.0
+    } else {
+        1.0
+    };
+    // Heights of `b` above `a`'s plane (the same for every edge of `a`).
+    let ya = y.dot(ca);
+    let mut heights = [0.0f64; CAP];
+    for (h, q) in heights.iter_mut().zip(b_pts) {
+        *h = y.dot(*q) - ya;
     }
+    let heights = &heights[..bn];
     for i in 0..an {
         let ai = a_pts[i];
         let e = a_pts[if i + 1 == an { 0 } else { i + 1 }] - ai;
-        // Outward normal of the edge within `a`'s plane.
-        let Some(mut x) = e.cross(y).try_normalize() else { continue };
-        if (ca - ai).dot(x) > 0.0 {
-            x = -x;
+        // Outward normal of the edge within `a`'s plane, unnormalised: angles only need its
+        // direction, and the plane normal below is normalised at the end.
+        let x = e.cross(y) * outward;
+        let xa = x.dot(ai);
+        // The vertex of `b` at the largest angle from +x toward +y (toward `a`'s outside).
+        let (mut bx, mut by) = (x.dot(b_pts[0]) - xa, heights[0]);
+        for (q, &qy) in b_pts[1..].iter().zip(&heights[1..]) {
+            let qx = x.dot(*q) - xa;
+            let turn = bx * qy - by * qx > 0.0;
+            bx = if turn { qx } else { bx };
+            by = if turn { qy } else { by };
         }
-        // The vertices of `b` at the largest and smallest angle from +x toward +y: the planes
-        // through them are the only candidates (the second separates only when `b` crosses
-        // `a`'s plane).
-        let v0 = b_pts[0] - ai;
-        let (mut hx, mut hy) = (v0.dot(x), v0.dot(y));
-        let (mut lx, mut ly) = (hx, hy);
-        for q in &b_pts[1..] {
-            let v = *q - ai;
-            let (qx, qy) = (v.dot(x), v.dot(y));
-            let up = hx * qy - hy * qx > 0.0;
-            hx = if up { qx } else { hx };
-            hy = if up { qy } else { hy };
-            let down = lx * qy - ly * qx < 0.0;
-            lx = if down { qx } else { lx };
-            ly = if down { qy } else { ly };
+        let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
+        let dist = normal.dot(ai);
+        if !separates(normal, dist, a_pts, b_pts) {
+            continue;
         }
-        for (k, (bx, by)) in [(hx, hy), (-lx, -ly)].into_iter().enumerate() {
-            if k == 1 && (lx, ly) == (hx, hy) {
-                break;
-            }
-            let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
-            if !separates(normal, normal.dot(ai), a_pts, b_pts) {
-                continue;
-            }
-            let dist = normal.dot(ai);
-            let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
-            if !f(&plane) {
-                return;
-            }
+        let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
+        if !f(&plane) {
+            return;
         }
     }
 }

@@ -5,8 +5,9 @@
 //! - [`pvs::Pvs`] (the default): the eye cluster's precomputed PVS row, then the frustum walk.
 //! - [`portal::Portal`]: nothing precomputed; recursion through the level's portals, narrowing the
 //!   frustum at each portal polygon, then the same frustum walk over the leaves it reached.
-//! - `gvs` (module `backend/gvs.rs`, owned by the GVS work): the faces of the eye's GVS view cell.
-//!   It implements [`Backend`] and adds itself to [`all`].
+//! - [`gvs::Gvs`] (owned by the GVS work): the faces of the eye's GVS view cell. It is built from a
+//!   level's GVS cells (`Gvs::from_level`), so it is not in [`all`]; tools add it when a level has
+//!   cells.
 
 pub mod gvs;
 pub mod portal;

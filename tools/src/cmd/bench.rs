@@ -11,7 +11,8 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde_json::json;
-use sightline_runtime::backend::{self, Backend, pvs::Pvs};
+use sightline_formats::slvl;
+use sightline_runtime::backend::{self, Backend, gvs::Gvs, pvs::Pvs};
 use sightline_runtime::walk::walk_marked;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
@@ -51,6 +52,10 @@ struct Report {
     /// Leaves output after the frustum.
     visible_leaves_avg: f64,
     visible_faces_avg: f64,
+    /// Tree nodes and leaves popped by the frustum walk, per frame.
+    nodes_visited_avg: f64,
+    /// Box–frustum tests per frame (the plane mask skips planes a parent box is fully inside).
+    box_tests_avg: f64,
     /// Median over frames of (frame time / that frame's PVS leaves).
     ns_per_pvs_leaf: f64,
     /// PVS backend only: median time of locating the eye, decoding the row and marking up the tree.
@@ -67,16 +72,23 @@ struct Report {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
-    let world = load::load_path(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    let (world, gvs) = load_world(&args.input)?;
     let cams = poses::random_cameras(&world, args.seed, args.frames);
     anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
-    let chosen: Vec<&'static dyn Backend> = if args.backends.is_empty() {
-        backend::all().iter().copied().filter(|b| b.supports(&world)).collect()
+    let mut available: Vec<&dyn Backend> = backend::all().to_vec();
+    if let Some(g) = &gvs {
+        available.push(g);
+    }
+    let chosen: Vec<&dyn Backend> = if args.backends.is_empty() {
+        available.into_iter().filter(|b| b.supports(&world)).collect()
     } else {
         args.backends
             .iter()
             .map(|name| {
-                let b = backend::by_name(name).with_context(|| format!("unknown backend `{name}`"))?;
+                let b =
+                    available.iter().copied().find(|b| b.name() == name).with_context(|| {
+                        format!("unknown backend `{name}` (or no GVS cells in this level)")
+                    })?;
                 anyhow::ensure!(b.supports(&world), "backend `{name}` cannot run on this level");
                 Ok(b)
             })
@@ -102,6 +114,18 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     Ok(Outcome::Clean)
 }
 
+/// The world, and the GVS backend when the file is a `.slvl` holding GVS cells.
+fn load_world(path: &std::path::Path) -> anyhow::Result<(World, Option<Gvs>)> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    if !bytes.starts_with(&slvl::MAGIC) {
+        return Ok((load::load_path(path).with_context(|| format!("loading {}", path.display()))?, None));
+    }
+    let level = slvl::read(&bytes).with_context(|| format!("reading {}", path.display()))?;
+    let world = World::new(&level).with_context(|| format!("loading {}", path.display()))?;
+    let gvs = if level.gvs_cells.is_empty() { None } else { Some(Gvs::from_level(&level)?) };
+    Ok((world, gvs))
+}
+
 fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     let mut scratch = Scratch::new(world);
     let mut out = Visible::for_world(world);
@@ -112,6 +136,7 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     let mut times = Vec::with_capacity(views.len());
     let mut per_leaf = Vec::with_capacity(views.len());
     let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
+    let (mut visited, mut tests) = (0u64, 0u64);
     for view in &views {
         let start = Instant::now();
         backend.cull(world, view, &mut scratch, &mut out);
@@ -122,6 +147,8 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         leaves += out.leaves.len() as u64;
         faces += out.faces.len() as u64;
         truncated += usize::from(scratch.stats.truncated);
+        visited += u64::from(scratch.stats.nodes_visited);
+        tests += u64::from(scratch.stats.box_tests);
     }
     let n = views.len() as f64;
     let mean = times.iter().sum::<u64>() as f64 / n;
@@ -140,6 +167,8 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         pvs_leaves_avg: pvs_avg,
         visible_leaves_avg: leaves as f64 / n,
         visible_faces_avg: faces as f64 / n,
+        nodes_visited_avg: visited as f64 / n,
+        box_tests_avg: tests as f64 / n,
         ns_per_pvs_leaf: median(&mut per_leaf),
         mark_ns_median: mark_ns,
         walk_ns_median: walk_ns,
@@ -185,7 +214,15 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
     );
     println!(
         "{:<8} {:>9} {:>9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10}",
-        "backend", "min ns", "median ns", "p99 ns", "PVS leaves", "after frus.", "faces", "ns/PVS lf", "walk ns/lf"
+        "backend",
+        "min ns",
+        "median ns",
+        "p99 ns",
+        "PVS leaves",
+        "after frus.",
+        "faces",
+        "ns/PVS lf",
+        "walk ns/lf"
     );
     for r in reports {
         let walk = r.walk_ns_per_pvs_leaf.map_or_else(|| "-".to_string(), |w| format!("{w:.1}"));
@@ -204,6 +241,10 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
         if let (Some(m), Some(w)) = (r.mark_ns_median, r.walk_ns_median) {
             println!("         phases (medians): locate + decode + mark {m} ns, walk {w} ns");
         }
+        println!(
+            "         walk: {:.1} nodes and leaves visited, {:.1} box tests per frame",
+            r.nodes_visited_avg, r.box_tests_avg
+        );
         if r.truncated_frames > 0 {
             println!("         {} frames hit the portal search budget", r.truncated_frames);
         }

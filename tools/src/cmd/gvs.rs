@@ -384,13 +384,14 @@ fn print_table(r: &Report) {
         r.error_fov
     );
     println!(
-        "{:<18} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>8} {:>8} {:>10} {:>8}",
+        "{:<20} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8}",
         "variant",
         "rays",
         "random",
         "point",
         "edge",
         "reverse",
+        "silhou.",
         "reuse",
         "seconds",
         "pvs",
@@ -425,7 +426,10 @@ fn print_table(r: &Report) {
             r.rays_per_second_per_core / 1e6
         );
         if let Some(c) = r.rays_per_cpu_second {
-            println!("error rays per CPU second (process CPU time, fair on a shared machine): {:.2} M", c / 1e6);
+            println!(
+                "error rays per CPU second (process CPU time, fair on a shared machine): {:.2} M",
+                c / 1e6
+            );
         }
     }
 }
@@ -494,7 +498,7 @@ const MAX_GRID: u64 = 1 << 20;
 
 /// A grid of cubes of side `size` covering `bounds`.
 fn grid(bounds: &Cell, size: f32) -> anyhow::Result<Vec<Cell>> {
-    if !(size > 0.0) {
+    if size.is_nan() || size <= 0.0 {
         bail!("cell size {size} must be positive");
     }
     let ext = bounds.max - bounds.min;
@@ -535,10 +539,8 @@ fn load(input: &str, scene_seed: u64) -> anyhow::Result<(TriScene, Option<sightl
 
 fn load_obj(path: &Path) -> anyhow::Result<TriScene> {
     let mesh = sightline_formats::obj::load(path)?;
-    let triangles = (0..mesh.triangles.len())
-        .filter_map(|i| mesh.triangle(i))
-        .map(|t| t.map(|p| p.as_vec3()))
-        .collect();
+    let triangles =
+        (0..mesh.triangles.len()).filter_map(|i| mesh.triangle(i)).map(|t| t.map(|p| p.as_vec3())).collect();
     Ok(TriScene { triangles, face_of: None, suggested: Vec::new() })
 }
 
@@ -549,7 +551,8 @@ fn read_level(path: &Path) -> anyhow::Result<sightline_formats::Level> {
 
 fn write_level(path: &Path, level: &sightline_formats::Level) -> anyhow::Result<()> {
     sightline_formats::slvl::validate(level)?;
-    let bytes = sightline_formats::slvl::write(level, &sightline_formats::slvl::WriteOptions { compress: true });
+    let bytes =
+        sightline_formats::slvl::write(level, &sightline_formats::slvl::WriteOptions { compress: true });
     sightline_formats::atomic::write_file_atomic(path, &bytes)?;
     Ok(())
 }

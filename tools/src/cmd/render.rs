@@ -211,3 +211,20 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     println!("wrote {} ({}x{})", args.output.display(), image.width, image.height);
     Ok(outcome)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_vectors_pairs_and_sizes() {
+        assert_eq!(vec3("1,-2.5, 3", "--view").unwrap(), DVec3::new(1.0, -2.5, 3.0));
+        assert!(vec3("1,2", "--view").is_err());
+        assert!(vec3("1,2,inf", "--view").is_err());
+        assert_eq!(pair("-64..128", "..", "--z").unwrap(), (-64.0, 128.0));
+        assert_eq!(pair("90,-10", ",", "--look").unwrap(), (90.0, -10.0));
+        assert!(pair("90", ",", "--look").is_err());
+        assert_eq!(size("640x480").unwrap(), (640, 480));
+        assert!(size("0x480").is_err() && size("640").is_err() && size("99999x2").is_err());
+    }
+}

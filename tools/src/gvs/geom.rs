@@ -68,7 +68,7 @@ impl Cell {
         let r1 = std::f32::consts::TAU * x[3];
         let r2 = x[4];
         let s = (1.0 - r2 * r2).max(0.0).sqrt();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             // A point: uniform direction over the whole sphere.
             let z = 2.0 * r2 - 1.0;
             let s = (1.0 - z * z).max(0.0).sqrt();

@@ -60,7 +60,8 @@ pub struct Params {
     /// Cap on random rays. Default 1 M.
     pub max_random: u64,
     /// Termination window: stop when the last `window` rays found fewer than `min_new` new
-    /// triangles. Default 100 k.
+    /// triangles. Default 25 k (measured: on the generated city and sphere scenes 25 k gives the
+    /// same PVS and pixel error as 100 k, for a quarter of the proof rays).
     pub window: u64,
     /// See `window`. Default 1.
     pub min_new: u32,
@@ -81,7 +82,7 @@ impl Default for Params {
             silhouette: false,
             max_rays: 10_000_000,
             max_random: 1_000_000,
-            window: 100_000,
+            window: 25_000,
             min_new: 1,
             seed: 1,
         }
@@ -366,7 +367,8 @@ impl<'a> Gvs<'a> {
             if todo & (1 << k) == 0 || self.out_of_rays() {
                 continue;
             }
-            let pick = |bit: u8, axis: usize| if k & bit != 0 { self.cell.max[axis] } else { self.cell.min[axis] };
+            let pick =
+                |bit: u8, axis: usize| if k & bit != 0 { self.cell.max[axis] } else { self.cell.min[axis] };
             let corner = Vec3::new(pick(1, 0), pick(2, 1), pick(4, 2));
             if (corner - o).length_squared() == 0.0 {
                 continue;
@@ -446,7 +448,7 @@ impl<'a> Gvs<'a> {
         let len = (b - a).length();
         // Nothing narrower than the enlargement offset is resolved.
         let eps = self.p.eps;
-        if !(len > eps * ((a + b) * 0.5 - o).length()) {
+        if len.is_nan() || len <= eps * ((a + b) * 0.5 - o).length() {
             return;
         }
         // Step past a boundary by a twentieth of the enlargement offset (at most a quarter of the

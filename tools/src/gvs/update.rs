@@ -2,8 +2,9 @@
 //!
 //! Given the PVS of a cell with the ray that found each entry, the PVS of the cell moved by `v`:
 //! 1. re-cast every stored ray from its origin moved by `v` (clamped into the new cell) at its old
-//!    hit point: triangles hit that were in the old PVS form the "still visible" set (EPVS, added
-//!    without ABS); triangles hit that were not are new and get full ABS;
+//!    hit point: a ray that hits its old triangle again adds it to the "still visible" set (EPVS,
+//!    added without ABS); a ray that hits anything else (a new triangle, or an old one now in front)
+//!    marks a change, and that triangle gets full ABS;
 //! 2. sample the newly exposed area (PVA) around each EPVS triangle: one ray just past the
 //!    triangle's boundary in the direction of `v` (the `edgepoint` ray), and the edges of the
 //!    triangle that face `v`, shifted outwards, walked with the edge-point walk;
@@ -35,9 +36,11 @@ pub fn update(tris: &[[Vec3; 3]], bvh: &Bvh, prev: &Pvs, v: Vec3, params: Params
         if s.tri == u32::MAX || !g.insert(s.tri, o, s.pos) {
             continue;
         }
-        if was_in(s.tri) {
+        if was_in(s.tri) && s.tri == e.tri {
             still.push((s.tri, o, s.pos));
         } else {
+            // New, or an old triangle now in front of the one this ray found before: the view
+            // changed here, so explore it with full ABS.
             g.enqueue(o, s.tri, s.pos);
         }
     }

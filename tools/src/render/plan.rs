@@ -4,7 +4,7 @@
 //! Each pixel looks at [`PLAN_Z_SAMPLES`] heights evenly spread over the slab `z0..z1` and shows
 //! the most telling leaf found there, in this order: eye leaf (yellow), frustum-visible PVS leaf
 //! (cyan), PVS leaf (green), other open leaf (grey), sky (dark blue), solid (near black). Leaves
-//! carry a faint tint of their own colour so neighbours can be told apart. North (+y) is up.
+//! carry a faint tint (1/8) of their own colour so neighbours can be told apart. North (+y) is up.
 
 use anyhow::bail;
 use glam::DVec3;
@@ -223,7 +223,7 @@ pub fn render_plan(tree: &BspTree<'_>, pvs: Option<&BitMatrix>, opts: &PlanOptio
     Ok(Plan { image, pvs_leaves: pick(&[Kind::Pvs, Kind::Frustum]), frustum_leaves: pick(&[Kind::Frustum]) })
 }
 
-/// The colour of a category, tinted 20 % towards the leaf's own colour.
+/// The colour of a category, tinted 1/8 of the way towards the leaf's own colour.
 fn colour(kind: Kind, leaf: u32) -> Rgb {
     let base = match kind {
         Kind::Solid => return SOLID,
@@ -234,7 +234,7 @@ fn colour(kind: Kind, leaf: u32) -> Rgb {
         Kind::Eye => return EYE,
     };
     let tint = leaf_colour(leaf);
-    std::array::from_fn(|i| ((u16::from(base[i]) * 4 + u16::from(tint[i])) / 5) as u8)
+    std::array::from_fn(|i| ((u16::from(base[i]) * 7 + u16::from(tint[i])) / 8) as u8)
 }
 
 #[cfg(test)]
