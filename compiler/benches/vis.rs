@@ -96,9 +96,9 @@ fn main() {
     }
     let wanted: Vec<&String> = args.iter().filter(|a| !a.starts_with('-')).collect();
     println!(
-        "| map | portals | full wall s (2 thr) | full CPU s | ericw s | ratio ericw/ours (wall) | avg visible ours / ericw | pairs ours / ericw | chains | fast wall s | ericw fast s | peak MB ours / ericw |"
+        "| map | portals | full wall s (2 thr) | full CPU s | ericw s | ratio ericw/ours (wall) | avg visible ours / ericw | pairs ours / ericw | chains | fast wall s | fast CPU s | ericw fast s | peak MB ours / ericw |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, e_full, e_fast, e_avg, e_mb) in ANCHORS {
         if !wanted.is_empty() && !wanted.iter().any(|w| *w == name) {
             continue;
@@ -114,7 +114,7 @@ fn main() {
         };
         let pairs = reference_pairs(name).map_or("?".to_string(), |p| format!("{:.3}", full[3] / p));
         println!(
-            "| {name} | {portals} | {wall:.3} | {cpu:.2} | {e_full:.2} | {ratio:.2} | {avg:.1} / {e_avg:.1} | {pairs} | {chains} | {fwall:.3} | {e_fast:.2} | {mb:.0} / {e_mb:.0} |",
+            "| {name} | {portals} | {wall:.3} | {cpu:.2} | {e_full:.2} | {ratio:.2} | {avg:.1} / {e_avg:.1} | {pairs} | {chains} | {fwall:.3} | {fcpu:.2} | {e_fast:.2} | {mb:.0} / {e_mb:.0} |",
             portals = full[6],
             wall = full[0],
             cpu = full[1],
@@ -122,6 +122,7 @@ fn main() {
             avg = full[2],
             chains = full[4],
             fwall = fast[0],
+            fcpu = fast[1],
             mb = full[5].max(fast[5]),
         );
     }

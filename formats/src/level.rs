@@ -33,7 +33,7 @@ pub enum Contents {
     Slime = -4,
     /// Lava (see-through).
     Lava = -5,
-    /// Sky (blocks nothing for vis purposes, drawn as sky).
+    /// Sky: drawn as sky, and opaque to sight like solid (Quake makes no vis portals into sky).
     Sky = -6,
 }
 

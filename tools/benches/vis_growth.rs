@@ -25,7 +25,7 @@ fn main() {
         "| rooms | storeys | vis leaves | portals | full wall s | full CPU s | chains | avg visible | fast wall s |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
-    for (rooms, storeys) in [(2, 1), (3, 1), (4, 1), (4, 2), (6, 2), (6, 3), (8, 3)] {
+    for (rooms, storeys) in [(2, 1), (4, 1), (4, 2), (6, 3), (8, 3), (12, 3), (16, 4), (20, 5)] {
         let params = MapGenParams { rooms_x: rooms, rooms_y: rooms, storeys, seed: 7 };
         let text = generate(&params);
         let file = format!("gen_{rooms}x{rooms}x{storeys}.map");

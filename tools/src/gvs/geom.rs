@@ -135,7 +135,9 @@ pub fn enlarge(tri: &[Vec3; 3], o: Vec3, eps: f32) -> [Vec3; 9] {
         let corner = if out_next.dot(out_prev) > 0.0 {
             (out_next + out_prev).normalize_or_zero()
         } else {
-            (view.cross(out_next) + out_prev.cross(view)).normalize_or_zero()
+            // Quadratic in the viewing side (view and the flipped normals both change sign), so
+            // it takes the back-face flip once more.
+            (view.cross(out_next) + out_prev.cross(view)).normalize_or_zero() * flip
         };
         let r = eps * view.length();
         out[3 * i] = p + out_prev * r;
