@@ -56,7 +56,8 @@ impl Contents {
         self as i32
     }
 
-    /// True for every contents except solid: sight passes through it.
+    /// True for every contents except solid: the leaf is open space with a cluster (sky leaves
+    /// are open but opaque to sight; see [`Contents::Sky`]).
     pub fn is_open(self) -> bool {
         self != Self::Solid
     }
