@@ -13,6 +13,7 @@ pub mod level;
 pub mod map;
 pub mod obj;
 pub mod prt;
+pub mod rng;
 pub mod rle;
 pub mod slvl;
 mod tree_check;

@@ -34,8 +34,9 @@ pub struct Args {
     /// Use at most this many cells (evenly spaced through the list).
     #[arg(long)]
     pub max_cells: Option<usize>,
-    /// Variant to run: gvs (stock), d4, adt, edgepoint, edgepoint+sil.
-    #[arg(long, default_value = "gvs")]
+    /// Variant to run: gvs (stock), d4, adt, edgepoint, edgepoint+sil (the default: the edge-point
+    /// walk with corner re-seeding, the most accurate per ray).
+    #[arg(long, default_value = "edgepoint+sil")]
     pub variant: String,
     /// Run every variant and the incremental update side by side and print a table.
     #[arg(long)]

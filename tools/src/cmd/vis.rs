@@ -315,7 +315,7 @@ fn text_report(r: &Report) -> String {
         "{input} ({fmt}): {leaves} leaves, {clusters} clusters, {portals} portals{dropped}\n\
          vis {mode}, {threads} threads\n\
          visible leaves: average {avg:.1} ({pct:.1} %), median {med}, max {max}; base vis average {might:.1}\n\
-         portal chains visited: {chains}\n\
+         portal chains visited: {chains}{resumed}\n\
          compressed PVS: {bytes} bytes -> {output}\n\
          time: read {read:.3} s, base {base:.3} s, flow {flow:.3} s, rows {rows:.3} s, write {write:.3} s, total {total:.3} s\n",
         input = r.input,
@@ -335,6 +335,11 @@ fn text_report(r: &Report) -> String {
         max = v.max_visible,
         might = v.avg_mightsee,
         chains = v.chains,
+        resumed = if v.resumed_portals > 0 {
+            format!(" ({} portals resumed from the state file)", v.resumed_portals)
+        } else {
+            String::new()
+        },
         bytes = r.compressed_bytes,
         output = r.output,
         read = r.read_seconds,
@@ -344,4 +349,20 @@ fn text_report(r: &Report) -> String {
         write = r.write_seconds,
         total = r.total_seconds,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ambient_sounds_follow_texture_names() {
+        assert_eq!(ambient_of("*water1"), Some(0));
+        assert_eq!(ambient_of("*04water"), Some(0));
+        assert_eq!(ambient_of("SKY4"), Some(1));
+        assert_eq!(ambient_of("*slime0"), Some(2));
+        assert_eq!(ambient_of("*lava1"), Some(3));
+        assert_eq!(ambient_of("wall5"), None);
+        assert_eq!(ambient_of(""), None);
+    }
 }
