@@ -29,9 +29,9 @@ impl SplitMix64 {
         z ^ (z >> 31)
     }
 
-    /// Uniform in `0..n`; `0` when `n == 0`.
-    pub fn below(&mut self, n: u64) -> u64 {
-        if n == 0 { 0 } else { self.next_u64() % n }
+    /// Uniform in `0..n` (multiply-shift, no modulo bias worth naming); `0` when `n == 0`.
+    pub fn below(&mut self, n: usize) -> usize {
+        ((u128::from(self.next_u64()) * n as u128) >> 64) as usize
     }
 
     /// Uniform in `[0, 1)` with 53 random bits.
@@ -50,7 +50,7 @@ impl SplitMix64 {
     }
 
     /// Uniform in `[lo, hi)`.
-    pub fn range_f32(&mut self, lo: f32, hi: f32) -> f32 {
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.unit_f32()
     }
 }

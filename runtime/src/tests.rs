@@ -7,7 +7,7 @@ use sightline_formats::level::Level;
 use crate::backend::{Backend, portal::Portal, pvs::Pvs};
 use crate::camera::{BoxSide, Camera, Frustum};
 use crate::check::{LeafRegions, order_violations, sampled_leaves};
-use crate::poses::{SplitMix64, random_cameras};
+use crate::poses::{SplitMix64, point_in, random_cameras};
 use crate::scratch::{Scratch, Visible};
 use crate::synth::grid_level;
 use crate::world::World;
@@ -40,7 +40,7 @@ fn leaf_at_agrees_with_brute_force() {
         let mut rng = SplitMix64::new(seed + 100);
         for _ in 0..2000 {
             // Include points outside the grid, and points exactly on cell planes.
-            let mut p = rng.point_in(Vec3A::splat(-100.0), Vec3A::new(612.0, 484.0, 292.0));
+            let mut p = point_in(&mut rng, Vec3A::splat(-100.0), Vec3A::new(612.0, 484.0, 292.0));
             if rng.below(4) == 0 {
                 p.x = (p.x / 64.0).round() * 64.0;
             }
@@ -56,7 +56,7 @@ fn trace_agrees_with_sampling() {
     let mut hits = 0;
     for _ in 0..1000 {
         let a = crate::poses::random_open_point(&world, &mut rng).expect("open point");
-        let b = rng.point_in(Vec3A::splat(-50.0), Vec3A::new(562.0, 434.0, 242.0));
+        let b = point_in(&mut rng, Vec3A::splat(-50.0), Vec3A::new(562.0, 434.0, 242.0));
         let samples = 4000;
         let first_solid = sampled_leaves(&world, a, b, samples)
             .into_iter()
@@ -238,7 +238,7 @@ fn damaged_levels_fail_or_answer_without_panicking() {
                 let mut scratch = Scratch::new(&world);
                 let mut out = Visible::default();
                 for i in 0..4 {
-                    let p = rng.point_in(Vec3A::splat(-100.0), Vec3A::splat(600.0));
+                    let p = point_in(&mut rng, Vec3A::splat(-100.0), Vec3A::splat(600.0));
                     let cam = Camera::quake(Vec3::from(p), rng.range(0.0, 360.0), 0.0);
                     let _ = world.leaf_at(p);
                     let _ = world.trace(p, p + Vec3A::splat(300.0));

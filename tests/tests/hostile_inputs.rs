@@ -64,22 +64,7 @@ fn peak_during(f: impl FnOnce()) -> usize {
     (PEAK.with(Cell::get) - base).max(0) as usize
 }
 
-/// splitmix64, seeded per test so every run mutates the same way.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+use sightline_formats::rng::SplitMix64 as Rng;
 
 /// Values that break naive readers when they land in a count, offset or length field.
 const HUGE: [u32; 8] =
@@ -90,7 +75,7 @@ const HUGE: [u32; 8] =
 fn mutate(rng: &mut Rng, input: &[u8], header: usize) -> Vec<u8> {
     let mut out = input.to_vec();
     if out.is_empty() {
-        return vec![rng.next() as u8; rng.below(64)];
+        return vec![rng.next_u64() as u8; rng.below(64)];
     }
     match rng.below(6) {
         0 => out.truncate(rng.below(input.len())),
@@ -103,7 +88,7 @@ fn mutate(rng: &mut Rng, input: &[u8], header: usize) -> Vec<u8> {
         2 => {
             let at = rng.below(out.len());
             let n = (1 + rng.below(32)).min(out.len() - at);
-            out[at..at + n].iter_mut().for_each(|b| *b = rng.next() as u8);
+            out[at..at + n].iter_mut().for_each(|b| *b = rng.next_u64() as u8);
         }
         3 => {
             let region = if rng.below(2) == 0 { header.min(out.len()) } else { out.len() };
@@ -122,7 +107,7 @@ fn mutate(rng: &mut Rng, input: &[u8], header: usize) -> Vec<u8> {
         }
         _ => {
             let at = rng.below(out.len() + 1);
-            let junk: Vec<u8> = (0..1 + rng.below(64)).map(|_| rng.next() as u8).collect();
+            let junk: Vec<u8> = (0..1 + rng.below(64)).map(|_| rng.next_u64() as u8).collect();
             out.splice(at..at, junk);
         }
     }
@@ -177,7 +162,7 @@ fn hammer(
     bound: impl Fn(usize) -> usize,
     mut read: impl FnMut(&[u8]) -> bool,
 ) -> usize {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut rejected = 0;
     let mut worst = 0usize;
     for input in inputs {
@@ -226,11 +211,11 @@ fn bundled_with_ext(ext: &str) -> Vec<Vec<u8>> {
 
 #[test]
 fn rle_rows_survive_hostile_bytes() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     let mut inputs = Vec::new();
     for _ in 0..20 {
         let row: Vec<u8> =
-            (0..1 + rng.below(400)).map(|_| if rng.below(4) == 0 { rng.next() as u8 } else { 0 }).collect();
+            (0..1 + rng.below(400)).map(|_| if rng.below(4) == 0 { rng.next_u64() as u8 } else { 0 }).collect();
         let mut packed = Vec::new();
         rle::encode_row(&row, &mut packed);
         inputs.push(packed);

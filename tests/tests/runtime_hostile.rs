@@ -4,7 +4,7 @@
 use glam::{Vec3, Vec3A};
 use sightline_formats::slvl;
 use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
-use sightline_runtime::poses::SplitMix64;
+use sightline_runtime::poses::{SplitMix64, point_in};
 use sightline_runtime::{Camera, Scratch, Visible, load, synth};
 
 #[test]
@@ -43,7 +43,7 @@ fn damaged_slvl_files_fail_or_answer() {
                 loaded += 1;
                 let mut scratch = Scratch::new(&world);
                 let mut out = Visible::default();
-                let p = rng.point_in(Vec3A::splat(-64.0), Vec3A::splat(400.0));
+                let p = point_in(&mut rng, Vec3A::splat(-64.0), Vec3A::splat(400.0));
                 let _ = world.leaf_at(p);
                 let _ = world.trace(p, p + Vec3A::new(300.0, 50.0, -20.0));
                 let cam = Camera::quake(Vec3::from(p), rng.range(0.0, 360.0), 0.0);

@@ -5,7 +5,7 @@
 use glam::Vec3A;
 use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
 use sightline_runtime::check::{LeafRegions, order_violations, sampled_leaves};
-use sightline_runtime::poses::{SplitMix64, random_cameras, random_open_point};
+use sightline_runtime::poses::{SplitMix64, point_in, random_cameras, random_open_point};
 use sightline_runtime::{Scratch, Visible, World, load};
 
 const MAPS: [&str; 2] = ["e1m1_nodetail", "dm2_nodetail"];
@@ -43,7 +43,7 @@ fn leaf_at_agrees_with_brute_force_on_real_maps() {
         let mut rng = SplitMix64::new(17);
         for i in 0..1500 {
             let p = if i % 2 == 0 {
-                rng.point_in(lo, hi)
+                point_in(&mut rng, lo, hi)
             } else {
                 random_open_point(&world, &mut rng).expect("open")
             };
@@ -60,7 +60,7 @@ fn trace_agrees_with_sampling_on_real_maps() {
         let (mut agree, mut thin) = (0, 0);
         for _ in 0..400 {
             let a = random_open_point(&world, &mut rng).expect("open");
-            let b = rng.point_in(lo, hi);
+            let b = point_in(&mut rng, lo, hi);
             let len = (b - a).length();
             let samples = (len * 2.0) as usize + 1; // every half unit
             let solid = |l: u32| world.leaf_contents(l).is_some_and(|c| !c.is_open());

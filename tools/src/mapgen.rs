@@ -16,6 +16,8 @@
 //! `16k + 8` without ever landing on a brush face. Output is deterministic for a given
 //! [`MapGenParams`] (its own SplitMix64 generator, fixed iteration order).
 
+use sightline_formats::rng::SplitMix64;
+
 use std::fmt::Write as _;
 
 /// Wall, floor and ceiling thickness.
@@ -117,22 +119,14 @@ pub struct Layout {
     pub player_start: [i64; 3],
 }
 
-/// SplitMix64: small, fast and good enough for level layouts.
+/// The layout's random choices, on the project's one generator.
 #[derive(Debug)]
-struct Rng(u64);
+struct Rng(SplitMix64);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
     /// Uniform in `0..n` (`n > 0`).
     fn below(&mut self, n: u64) -> u64 {
-        self.next() % n.max(1)
+        self.0.below(n.max(1) as usize) as u64
     }
 
     /// A multiple of `step` in `lo..=hi`.
@@ -159,7 +153,7 @@ pub fn layout(params: &MapGenParams) -> Layout {
     let nx = params.rooms_x.clamp(1, MAX_ROOMS_PER_AXIS) as usize;
     let ny = params.rooms_y.clamp(1, MAX_ROOMS_PER_AXIS) as usize;
     let ns = params.storeys.clamp(1, MAX_STOREYS) as usize;
-    let mut rng = Rng(params.seed ^ 0x5167_6874_6c69_6e65);
+    let mut rng = Rng(SplitMix64::new(params.seed ^ 0x5167_6874_6c69_6e65));
     let index = |x: usize, y: usize, s: usize| (s * ny + y) * nx + x;
 
     // Rooms: random extents within each cell, always covering [MARGIN, CELL - MARGIN].

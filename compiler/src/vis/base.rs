@@ -42,6 +42,24 @@ fn any_behind(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
     g.winding(p).iter().any(|q| t.plane.distance(*q) < -COPLANAR_EPSILON)
 }
 
+/// Portal spheres and planes as separate arrays, so the all-pairs scan streams through memory.
+struct Soa {
+    center: Vec<[f64; 4]>,
+    plane: Vec<[f64; 4]>,
+}
+
+impl Soa {
+    fn new(g: &Graph) -> Self {
+        let center = g.portals.iter().map(|p| [p.center.x, p.center.y, p.center.z, p.radius]).collect();
+        let plane = g
+            .portals
+            .iter()
+            .map(|p| [p.plane.normal.x, p.plane.normal.y, p.plane.normal.z, p.plane.dist])
+            .collect();
+        Self { center, plane }
+    }
+}
+
 /// The `mightsee` rows: `words` u64 per portal, portal after portal. `progress` is called once
 /// per finished portal.
 pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u64> {
@@ -50,13 +68,27 @@ pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u6
     if words == 0 {
         return rows;
     }
+    let soa = Soa::new(g);
     rows.par_chunks_mut(words).enumerate().for_each_init(
         || (vec![0u64; words], Vec::<u32>::new()),
         |(front, stack), (pi, row)| {
             front.fill(0);
             let p = &g.portals[pi];
-            for (ti, t) in g.portals.iter().enumerate() {
-                if ti != pi && any_in_front(g, p, t) && any_behind(g, p, t) {
+            let [nx, ny, nz, nd] = soa.plane[pi];
+            let [px, py, pz, pr] = soa.center[pi];
+            for (ti, (c, t_plane)) in soa.center.iter().zip(&soa.plane).enumerate() {
+                // Sphere tests first: most pairs are decided by them.
+                let d = nx * c[0] + ny * c[1] + nz * c[2] - nd;
+                if d + c[3] <= COPLANAR_EPSILON {
+                    continue;
+                }
+                let e = t_plane[0] * px + t_plane[1] * py + t_plane[2] * pz - t_plane[3];
+                if e - pr >= -COPLANAR_EPSILON || ti == pi {
+                    continue;
+                }
+                let t = &g.portals[ti];
+                let front_ok = d - c[3] > COPLANAR_EPSILON || any_in_front(g, p, t);
+                if front_ok && (e + pr < -COPLANAR_EPSILON || any_behind(g, p, t)) {
                     bits::set(front, ti);
                 }
             }

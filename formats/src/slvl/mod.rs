@@ -406,20 +406,16 @@ mod tests {
     use crate::level::{Contents, Face, GvsCell, Leaf, LevelPlane, Model, Node, Portal};
     use proptest::prelude::*;
 
-    /// splitmix64: a tiny deterministic generator driven by proptest's seed.
-    struct Rng(u64);
+    /// Random fields on the project's generator.
+    struct Rng(crate::rng::SplitMix64);
 
     impl Rng {
         fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
+            self.0.next_u64()
         }
 
         fn below(&mut self, n: usize) -> usize {
-            (self.next() % n.max(1) as u64) as usize
+            self.0.below(n.max(1))
         }
 
         fn f(&mut self) -> f32 {
@@ -433,7 +429,7 @@ mod tests {
 
     /// A random level that satisfies every invariant [`validate`] checks.
     pub(crate) fn random_level(seed: u64) -> Level {
-        let mut r = Rng(seed);
+        let mut r = Rng(crate::rng::SplitMix64::new(seed));
         let mut level = Level {
             entities: format!("{{\n\"classname\" \"worldspawn\"\n\"message\" \"é {seed}\"\n}}\n"),
             ..Level::default()

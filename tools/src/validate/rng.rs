@@ -2,33 +2,28 @@
 //! `(seed, leaf, bundle)` alone, so results never depend on which thread ran what.
 
 use glam::DVec3;
+use sightline_formats::rng::SplitMix64;
 
-/// SplitMix64 (Steele, Lea and Flood 2014): 64 bits of state, good equidistribution, cheap.
+/// The validator's random stream: the project's SplitMix64, keyed by `(seed, a, b)`.
 #[derive(Debug, Clone)]
-pub struct Rng(u64);
+pub struct Rng(SplitMix64);
 
 impl Rng {
     /// The stream for one `(seed, a, b)` triple.
     pub fn for_key(seed: u64, a: u64, b: u64) -> Self {
-        let mut r = Rng(seed ^ 0x9E37_79B9_7F4A_7C15);
-        let x = r.next_u64() ^ a.wrapping_mul(0xD1B5_4A32_D192_ED03);
-        let mut r = Rng(x);
-        let y = r.next_u64() ^ b.wrapping_mul(0x8CB9_2BA7_2F3D_8DD7);
-        Rng(y)
+        let mut r = SplitMix64::new(seed ^ 0x9E37_79B9_7F4A_7C15);
+        let mut r = SplitMix64::new(r.next_u64() ^ a.wrapping_mul(0xD1B5_4A32_D192_ED03));
+        Rng(SplitMix64::new(r.next_u64() ^ b.wrapping_mul(0x8CB9_2BA7_2F3D_8DD7)))
     }
 
     /// Next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// Uniform in `[0, 1)`.
     pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        self.0.unit_f64()
     }
 
     /// A direction uniform on the unit sphere.
