@@ -13,8 +13,8 @@ pub mod level;
 pub mod map;
 pub mod obj;
 pub mod prt;
-pub mod rng;
 pub mod rle;
+pub mod rng;
 pub mod slvl;
 mod tree_check;
 

@@ -485,8 +485,14 @@ mod tests {
         assert_eq!((e.line, e.col), (4, 5));
         assert!(matches!(e.kind, PrtErrorKind::OutOfRange { value: 2, .. }));
         assert_eq!(e.to_string(), "bad.prt:4:5: leaf 2 out of range (there are 2)");
-        assert!(matches!(err("PRT1\n2\n1\n2 0 1 (0 0 0) (1 0 0)          \n").kind, PrtErrorKind::BadPointCount(2)));
-        assert!(matches!(err("PRT1\n2\n1\n65 0 1 (0 0 0)                \n").kind, PrtErrorKind::BadPointCount(65)));
+        assert!(matches!(
+            err("PRT1\n2\n1\n2 0 1 (0 0 0) (1 0 0)          \n").kind,
+            PrtErrorKind::BadPointCount(2)
+        ));
+        assert!(matches!(
+            err("PRT1\n2\n1\n65 0 1 (0 0 0)                \n").kind,
+            PrtErrorKind::BadPointCount(65)
+        ));
         assert!(matches!(
             err("PRT1\n2\n1\n3 0 1 (0 0 0) (inf 0 0) (0 1 0)\n").kind,
             PrtErrorKind::NonFinite(_)

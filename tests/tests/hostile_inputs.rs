@@ -214,8 +214,9 @@ fn rle_rows_survive_hostile_bytes() {
     let mut rng = Rng::new(1);
     let mut inputs = Vec::new();
     for _ in 0..20 {
-        let row: Vec<u8> =
-            (0..1 + rng.below(400)).map(|_| if rng.below(4) == 0 { rng.next_u64() as u8 } else { 0 }).collect();
+        let row: Vec<u8> = (0..1 + rng.below(400))
+            .map(|_| if rng.below(4) == 0 { rng.next_u64() as u8 } else { 0 })
+            .collect();
         let mut packed = Vec::new();
         rle::encode_row(&row, &mut packed);
         inputs.push(packed);

@@ -93,40 +93,8 @@ pub fn generate(kind: Kind, size: u32, seed: u64) -> Scene {
     }
 }
 
-/// A small deterministic generator (SplitMix64).
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// Seeded generator.
-    pub fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-}
+/// The generators' random stream: the project's SplitMix64.
+pub use sightline_formats::rng::SplitMix64 as Rng;
 
 /// Push the two triangles of the quad `a b c d` (in order around it).
 fn quad(out: &mut Vec<[Vec3; 3]>, a: Vec3, b: Vec3, c: Vec3, d: Vec3) {
@@ -200,7 +168,7 @@ fn maze(n: usize, rng: &mut Rng) -> Vec<bool> {
 /// are tessellated ground quads. About 130 triangles per block: `n = 100` gives about 1.3 M.
 pub fn city(n: usize, seed: u64) -> Scene {
     let n = n.max(3);
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::new(seed ^ 0x9E37_79B9_7F4A_7C15);
     let solid = maze(n, &mut rng);
     let heights: Vec<f32> =
         solid.iter().map(|&s| if s { (rng.range(8.0, 40.0) / FLOOR).round() * FLOOR } else { 0.0 }).collect();
@@ -294,7 +262,7 @@ fn sphere(out: &mut Vec<[Vec3; 3]>, c: Vec3, r: f32) {
 /// 0.3–0.9 (80 triangles each), or with `mixed` every second one a single random triangle of
 /// similar size. A 4³ box in the middle is kept free for the suggested view cell (2³).
 pub fn spheres(n: usize, mixed: bool, seed: u64) -> Scene {
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::new(seed ^ 0x9E37_79B9_7F4A_7C15);
     let mut tris = Vec::with_capacity(n * 80);
     let mid = Vec3::splat(SPHERE_BOX / 2.0);
     let mut k = 0;
