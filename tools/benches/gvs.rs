@@ -28,7 +28,7 @@ fn bench(c: &mut Criterion) {
     let mut rng = Rng::new(3);
     let eye: Vec<(Vec3, Vec3)> = (0..RAYS)
         .map(|_| {
-            let o = lo + (hi - lo) * Vec3::new(rng.unit(), rng.unit(), rng.unit());
+            let o = lo + (hi - lo) * Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
             let yaw = rng.range(0.0, std::f32::consts::TAU);
             let pitch = rng.range(-0.8, 0.8);
             (o, Vec3::new(pitch.cos() * yaw.cos(), pitch.cos() * yaw.sin(), pitch.sin()))

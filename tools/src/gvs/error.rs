@@ -27,7 +27,7 @@ pub fn views(cell: &Cell, n: usize, seed: u64) -> Vec<View> {
     let mut rng = Rng::new(seed);
     (0..n)
         .map(|_| {
-            let f = Vec3::new(rng.unit(), rng.unit(), rng.unit());
+            let f = Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
             let eye = cell.min + (cell.max - cell.min) * f;
             let yaw = rng.range(0.0, std::f32::consts::TAU);
             let pitch = rng.range(-45f32.to_radians(), 45f32.to_radians());
