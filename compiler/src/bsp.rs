@@ -75,6 +75,18 @@ impl TreeNode {
 }
 
 impl Tree {
+    /// Contents of every entry: a leaf's own, and `Solid` for interior nodes (which callers
+    /// index by node id but never treat as cells).
+    pub fn contents_by_node(&self) -> Vec<Contents> {
+        self.nodes
+            .iter()
+            .map(|t| match t {
+                TreeNode::Leaf { contents, .. } => *contents,
+                TreeNode::Node { .. } => Contents::Solid,
+            })
+            .collect()
+    }
+
     /// The leaf holding `p` (points on a plane go to the front).
     pub fn locate(&self, planes: &PlaneSet, p: glam::DVec3) -> u32 {
         let mut i = 0u32;

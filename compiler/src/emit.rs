@@ -181,15 +181,7 @@ pub fn emit(
 
     // Submodels.
     for m in submodels {
-        let contents: Vec<Contents> = m
-            .tree
-            .nodes
-            .iter()
-            .map(|t| match t {
-                TreeNode::Leaf { contents, .. } => *contents,
-                TreeNode::Node { .. } => Contents::Solid,
-            })
-            .collect();
+        let contents = m.tree.contents_by_node();
         let mut map = vec![u32::MAX; m.tree.nodes.len()];
         let head = emit_tree(&mut out, &m.tree, &contents, &mut map);
         let first_face = out.level.faces.len() as u32;

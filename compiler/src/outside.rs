@@ -48,14 +48,7 @@ pub struct Fill {
 /// non-solid leaf that no seed reaches.
 pub fn flood(tree: &Tree, planes: &PlaneSet, g: &Portals, seeds: &[Seed], fill: bool) -> Fill {
     let n = tree.nodes.len();
-    let mut contents: Vec<Contents> = tree
-        .nodes
-        .iter()
-        .map(|t| match t {
-            TreeNode::Leaf { contents, .. } => *contents,
-            TreeNode::Node { .. } => Contents::Solid,
-        })
-        .collect();
+    let mut contents = tree.contents_by_node();
     let other_of = |id: u32, from: u32| {
         let p = &g.portals[id as usize];
         if p.nodes[0] == from { p.nodes[1] } else { p.nodes[0] }

@@ -29,3 +29,15 @@ pub fn shared_maps() -> Option<PathBuf> {
         None
     }
 }
+
+/// The file `rel` (for example `ericw/e1m1.prt`) under [`shared_maps`], or `None`, after printing
+/// why, when the maps or that file are absent.
+pub fn shared_map(rel: &str) -> Option<PathBuf> {
+    let p = shared_maps()?.join(rel);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("note: {} missing; its checks are not run", p.display());
+        None
+    }
+}

@@ -13,13 +13,7 @@ use sightline::validate::{Options, OracleChoice, load, validate};
 use sightline_formats::{bsp, prt, rle};
 
 fn ericw(name: &str) -> Option<PathBuf> {
-    let p = sightline_tests::shared_maps()?.join("ericw").join(name);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("note: {} missing; skipped", p.display());
-        None
-    }
+    sightline_tests::shared_map(&format!("ericw/{name}"))
 }
 
 #[test]
