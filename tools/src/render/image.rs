@@ -96,10 +96,12 @@ impl Image {
         Ok(())
     }
 
-    /// Write a PNG file.
+    /// Write a PNG file atomically (encoded in memory, then a temporary file renamed into place).
     pub fn save(&self, path: &Path) -> anyhow::Result<()> {
-        let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-        self.write_png(std::io::BufWriter::new(f)).with_context(|| format!("writing {}", path.display()))
+        let mut bytes = Vec::new();
+        self.write_png(&mut bytes).with_context(|| format!("encoding {}", path.display()))?;
+        sightline_formats::atomic::write_file_atomic(path, &bytes)
+            .with_context(|| format!("writing {}", path.display()))
     }
 }
 
