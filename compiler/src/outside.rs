@@ -2,7 +2,8 @@
 //!
 //! The outside flood starts in every leaf that has a portal to the outside (the tree's box lies a
 //! margin beyond every brush, so those leaves are the void around the world) and crosses portals
-//! into leaves that are neither solid nor sky. An entity whose origin lies in a reached leaf is a
+//! into leaves that are neither solid nor sky. It does not cross slivers
+//! ([`crate::portals::is_sliver`]): two brushes that meet along an edge seal, as in qbsp. An entity whose origin lies in a reached leaf is a
 //! **leak**: the path handed back is the breadth-first (fewest portals) path from that entity's
 //! leaf to the outside, through portal centres.
 //!
@@ -59,7 +60,7 @@ pub fn flood(tree: &Tree, planes: &PlaneSet, g: &Portals, seeds: &[Seed], fill: 
     let mut reached = vec![false; n];
     let mut queue = VecDeque::new();
     for (id, p) in g.portals.iter().enumerate() {
-        if p.winding.is_empty() || !p.nodes.contains(&g.outside) {
+        if !g.is_passable(id as u32) || !p.nodes.contains(&g.outside) {
             continue;
         }
         let leaf = other_of(id as u32, g.outside);
@@ -71,7 +72,7 @@ pub fn flood(tree: &Tree, planes: &PlaneSet, g: &Portals, seeds: &[Seed], fill: 
     }
     while let Some(leaf) = queue.pop_front() {
         for &id in &g.by_node[leaf as usize] {
-            if !g.is_live(id) {
+            if !g.is_passable(id) {
                 continue;
             }
             let next = other_of(id, leaf);

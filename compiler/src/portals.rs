@@ -144,11 +144,46 @@ impl Portals {
     pub fn is_live(&self, id: u32) -> bool {
         self.portals.get(id as usize).is_some_and(|p| !p.winding.is_empty())
     }
+
+    /// True when portal `id` is live and not a sliver that nothing can pass through (see
+    /// [`is_sliver`]). Only the leak flood uses this; vis keeps every live portal, since it must
+    /// round toward visible.
+    pub fn is_passable(&self, id: u32) -> bool {
+        self.portals.get(id as usize).is_some_and(|p| !p.winding.is_empty() && !is_sliver(&p.winding))
+    }
+}
+
+/// Edges shorter than this (map units) do not count towards a portal's width in [`is_sliver`].
+pub const SLIVER_EDGE: f64 = 0.2;
+
+/// A winding with fewer than three edges longer than [`SLIVER_EDGE`]: a pinch where two brushes
+/// meet along a line, or a crack far narrower than anything that could pass (qbsp drops such
+/// portals too). A long thin crack has two long edges and two short ones, so it is a sliver.
+pub fn is_sliver(w: &Winding) -> bool {
+    let n = w.points.len();
+    let long = (0..n).filter(|&i| w.points[i].distance(w.points[(i + 1) % n]) > SLIVER_EDGE).count();
+    long < 3
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pinches_and_hairline_cracks_are_slivers_but_narrow_doors_are_not() {
+        let quad = |w: f64, h: f64| {
+            Winding::new(vec![
+                glam::DVec3::new(0.0, 0.0, 0.0),
+                glam::DVec3::new(0.0, 0.0, h),
+                glam::DVec3::new(0.0, w, h),
+                glam::DVec3::new(0.0, w, 0.0),
+            ])
+        };
+        assert!(is_sliver(&quad(0.0, 848.0)), "a pinch along an edge");
+        assert!(is_sliver(&quad(0.1, 848.0)), "a hairline crack");
+        assert!(!is_sliver(&quad(0.5, 848.0)), "a narrow slot still lets things through");
+        assert!(!is_sliver(&quad(64.0, 96.0)), "a door");
+    }
     use crate::brush::Brush;
     use glam::DVec3;
     use sightline_formats::Contents;

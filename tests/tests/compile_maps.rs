@@ -159,3 +159,23 @@ fn representative_real_maps_compile_sealed_with_a_sound_portal_graph() {
         check_portal_graph(&out.level, player_start(&out.level), &origins);
     }
 }
+
+/// Every shared map compiles sealed (no leak), including ones whose brushes meet only along an
+/// edge (LibreQuake's lqdm3 has such a pinch, which must seal as it does in qbsp).
+#[test]
+fn every_shared_map_compiles_without_a_leak() {
+    let Some(dir) = sightline_tests::shared_maps() else { return };
+    let mut compiled = 0;
+    for sub in ["id", "librequake"] {
+        let Ok(entries) = std::fs::read_dir(dir.join(sub)) else { continue };
+        let mut paths: Vec<_> = entries.filter_map(|e| Some(e.ok()?.path())).collect();
+        paths.sort();
+        for path in paths.into_iter().filter(|p| p.extension().is_some_and(|e| e == "map")) {
+            let out = compile_file(&path);
+            assert!(out.leak.is_none(), "{} leaks", path.display());
+            assert!(out.stats.vis_leaves > 0, "{} has no open leaf", path.display());
+            compiled += 1;
+        }
+    }
+    assert!(compiled >= 20, "only {compiled} shared maps found");
+}
