@@ -3,7 +3,8 @@
 //!
 //! Rules (first match wins, over all sides of a brush):
 //! - a side textured `*lava…` makes lava, `*slime…` slime, any other `*…` water;
-//! - `sky…` makes sky (drawn as sky, sight passes through, the outside flood stops at it);
+//! - `sky…` makes sky (drawn as sky; opaque to sight, so no portal joins sky to anything else;
+//!   the outside flood stops at it);
 //! - `hint…`: a hint brush: not solid, its hint sides are splitters chosen before any other;
 //! - `clip…`: blocks movement only, so it makes no faces and does not block sight;
 //! - `trigger…`: a trigger volume: no faces, not solid;
@@ -91,6 +92,13 @@ pub fn priority(c: Contents) -> u8 {
     }
 }
 
+/// True when sight passes between two adjacent leaves of these contents, so that a portal joins
+/// them: neither is solid, and sky meets only sky (a sky surface hides what lies behind it, as
+/// Quake's tools write no portal into sky). Liquids are see-through, as ericw-tools' default.
+pub fn sight_passes(a: Contents, b: Contents) -> bool {
+    a != Contents::Solid && b != Contents::Solid && (a == Contents::Sky) == (b == Contents::Sky)
+}
+
 /// True for contents that stop the outside flood (solid rock and sky, as Quake's qbsp).
 pub fn blocks_outside(c: Contents) -> bool {
     matches!(c, Contents::Solid | Contents::Sky)
@@ -133,6 +141,10 @@ mod tests {
         assert_eq!(brush_kind(["*slime0"]), BrushKind::Contents(Contents::Slime));
         assert_eq!(brush_kind(["*04water1", "wall"]), BrushKind::Contents(Contents::Water));
         assert_eq!(brush_kind(["sky4", "wall"]), BrushKind::Contents(Contents::Sky));
+        assert!(sight_passes(Contents::Empty, Contents::Water));
+        assert!(sight_passes(Contents::Sky, Contents::Sky));
+        assert!(!sight_passes(Contents::Empty, Contents::Sky));
+        assert!(!sight_passes(Contents::Lava, Contents::Solid));
         assert_eq!(brush_kind(["CLIP", "clip"]), BrushKind::Clip);
         assert_eq!(brush_kind(["trigger"]), BrushKind::Trigger);
         assert_eq!(brush_kind(["hint", "skip"]), BrushKind::Hint);

@@ -22,6 +22,7 @@ use sightline_formats::{
 };
 
 use crate::bsp::{Tree, TreeNode};
+use crate::contents::sight_passes;
 use crate::csg::CsgFace;
 use crate::portals::Portals;
 
@@ -151,7 +152,8 @@ pub fn emit(
     };
     for p in &world.portals.portals {
         let Some(plane) = p.plane_index else { continue };
-        if p.winding.is_empty() || !p.nodes.iter().all(|&n| kept(n)) {
+        let contents_of = |n: u32| world.contents.get(n as usize).copied().unwrap_or(Contents::Solid);
+        if p.winding.is_empty() || !sight_passes(contents_of(p.nodes[0]), contents_of(p.nodes[1])) {
             continue;
         }
         let leaves = p.nodes.map(|n| leaf_map[n as usize]);
@@ -171,8 +173,13 @@ pub fn emit(
                 let original = origin.get(n as usize)?;
                 clusters.get(keys.get(*original as usize)?).copied()
             };
+            // A collapsed detail cell stands for a node, whose placeholder contents are not sky.
+            let sky = |n: u32| {
+                origin.get(n as usize).and_then(|&o| world.contents.get(o as usize)) == Some(&Contents::Sky)
+            };
             if let (Some(a), Some(b)) = (cluster_of(p.nodes[0]), cluster_of(p.nodes[1]))
                 && a != b
+                && sky(p.nodes[0]) == sky(p.nodes[1])
             {
                 prt.portals.push(PrtPortal { leaves: [a as u32, b as u32], winding: p.winding.clone() });
             }

@@ -163,7 +163,7 @@ pub struct Level {
     pub faces: Vec<Face>,
     /// Corners of faces and portals.
     pub vertices: Vec<[f32; 3]>,
-    /// Portals between non-solid leaves.
+    /// Portals: openings sight passes through, between non-solid leaves (sky only to sky).
     pub portals: Vec<Portal>,
     /// Brush models.
     pub models: Vec<Model>,

@@ -30,10 +30,10 @@ fn leaf_at(level: &Level, p: DVec3) -> usize {
     (-(c + 1)) as usize
 }
 
-/// Portal invariants: on the plane, inside both leaves' bounds, joining non-solid leaves; the
-/// player start is in a kept leaf; and the leaves reachable through portals from the entities
-/// (the player start and, in maps with areas joined only by teleporters, the entities there) are
-/// exactly the non-solid leaves the outside fill kept.
+/// Portal invariants: on the plane, inside both leaves' bounds, joining non-solid leaves (sky only
+/// to sky); the player start is in a kept leaf; and the leaves reachable through portals from the
+/// entities (the player start and, in maps with areas joined only by teleporters, the entities
+/// there) are exactly the non-solid, non-sky leaves the outside fill kept.
 fn check_portal_graph(level: &Level, start: DVec3, origins: &[DVec3]) {
     const EPS: f64 = 0.05;
     let mut adjacency = vec![Vec::new(); level.leaves.len()];
@@ -47,6 +47,8 @@ fn check_portal_graph(level: &Level, start: DVec3, origins: &[DVec3]) {
             let d = v(plane.normal).dot(q) - plane.dist as f64;
             assert!(d.abs() < EPS, "portal {i} point {q} is {d} off its plane");
         }
+        let sky = p.leaves.map(|l| level.leaves[l as usize].contents == Contents::Sky);
+        assert_eq!(sky[0], sky[1], "portal {i} joins sky to something else");
         for &l in &p.leaves {
             let leaf = &level.leaves[l as usize];
             assert_ne!(leaf.contents, Contents::Solid, "portal {i} touches solid leaf {l}");
@@ -80,9 +82,10 @@ fn check_portal_graph(level: &Level, start: DVec3, origins: &[DVec3]) {
     }
     let world_leaves = level.leaves.len() - submodel_leaves(level);
     for (i, leaf) in level.leaves.iter().take(world_leaves).enumerate() {
+        // Sky is kept (it borders the world) but opaque: no portal joins it to other contents.
         assert_eq!(
             seen[i],
-            leaf.contents != Contents::Solid,
+            leaf.contents != Contents::Solid && leaf.contents != Contents::Sky,
             "leaf {i} ({:?}) kept vs reached",
             leaf.contents
         );
