@@ -36,11 +36,13 @@ pub struct Poly {
     pub n: usize,
     /// The points; only `..n` are meaningful.
     pub p: [DVec3; CAP],
+    /// Scratch for [`Poly::clip`] when this polygon is its `tmp`: distances of the clipped points.
+    dist: [f64; CAP],
 }
 
 impl Default for Poly {
     fn default() -> Self {
-        Self { n: 0, p: [DVec3::ZERO; CAP] }
+        Self { n: 0, p: [DVec3::ZERO; CAP], dist: [0.0; CAP] }
     }
 }
 
@@ -94,7 +96,7 @@ impl Poly {
     /// `tmp` is scratch space.
     pub fn clip(&mut self, plane: &Plane, eps: f64, tmp: &mut Poly) -> Clip {
         let n = self.n;
-        let mut dist = [0.0f64; CAP];
+        let dist = &mut tmp.dist;
         let (mut front, mut back) = (false, false);
         for (d, q) in dist.iter_mut().zip(&self.p[..n]) {
             *d = plane.distance(*q) + eps;
@@ -112,7 +114,7 @@ impl Poly {
         for i in 0..n {
             let pi = self.p[i];
             let j = if i + 1 == n { 0 } else { i + 1 };
-            let (di, dj) = (dist[i], dist[j]);
+            let (di, dj) = (tmp.dist[i], tmp.dist[j]);
             if di >= 0.0 {
                 if out == CAP {
                     return Clip::Whole;
@@ -194,6 +196,12 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
             let turn = bx * qy - by * qx > 0.0;
             bx = if turn { qx } else { bx };
             by = if turn { qy } else { by };
+        }
+        // Unless the chosen vertex rises above `a`'s plane, the plane through the edge leans
+        // over `a`, which then is not behind it beyond rounding: the check below would refuse
+        // it, and skipping a plane only keeps more anyway. This spares the normalisation.
+        if by <= 0.0 {
+            continue;
         }
         let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
         let dist = normal.dot(ai);
