@@ -16,6 +16,8 @@ pub mod prt;
 pub mod rle;
 pub mod rng;
 pub mod slvl;
+#[cfg(test)]
+mod test_support;
 mod tree_check;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};

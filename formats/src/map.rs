@@ -681,15 +681,7 @@ mod tests {
             ) {
                 let text = world(BOX);
                 let mut bytes = text.into_bytes();
-                for (at, byte, op) in edits {
-                    let at = at % (bytes.len() + 1);
-                    match op {
-                        0 => bytes.insert(at, byte),
-                        1 if at < bytes.len() => bytes[at] = byte,
-                        _ if at < bytes.len() => { bytes.remove(at); }
-                        _ => {}
-                    }
-                }
+                crate::test_support::apply_edits(&mut bytes, &edits);
                 let text = String::from_utf8_lossy(&bytes);
                 match parse(&text, "h.map") {
                     Ok(map) => {

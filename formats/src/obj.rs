@@ -307,15 +307,7 @@ mod tests {
                 edits in proptest::collection::vec((0usize..4096, any::<u8>(), 0u8..3), 1..8)
             ) {
                 let mut bytes = QUAD.as_bytes().to_vec();
-                for (at, byte, op) in edits {
-                    let at = at % (bytes.len() + 1);
-                    match op {
-                        0 => bytes.insert(at, byte),
-                        1 if at < bytes.len() => bytes[at] = byte,
-                        _ if at < bytes.len() => { bytes.remove(at); }
-                        _ => {}
-                    }
-                }
+                crate::test_support::apply_edits(&mut bytes, &edits);
                 if let Ok(mesh) = load_from_bytes(&bytes, "h.obj") {
                     for t in &mesh.triangles {
                         prop_assert!(t.iter().all(|&i| (i as usize) < mesh.positions.len()));
