@@ -635,6 +635,57 @@ mod tests {
         assert_eq!(set.len(), 2);
     }
 
+    fn unit(v: (f64, f64, f64)) -> Option<DVec3> {
+        DVec3::new(v.0, v.1, v.2).try_normalize()
+    }
+
+    proptest::proptest! {
+        /// Splitting a convex winding by any plane gives pieces whose areas sum to the original's
+        /// and that lie on their own side of the plane (within the epsilon).
+        #[test]
+        fn split_pieces_cover_the_original(
+            n in (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0),
+            d in -300.0f64..300.0,
+            cut_n in (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0),
+            cut_d in -300.0f64..300.0,
+            clip_n in (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0),
+        ) {
+            let (Some(n), Some(cut_n), Some(clip_n)) = (unit(n), unit(cut_n), unit(clip_n)) else {
+                return Ok(());
+            };
+            // A bounded polygon: a base winding on (n, d) cut down by a box of half-size 512.
+            let mut w = Winding::base_for_plane(&Plane { normal: n, dist: d });
+            for axis in 0..3 {
+                for sign in [1.0, -1.0] {
+                    let mut normal = DVec3::ZERO;
+                    normal[axis] = -sign;
+                    match w.clip(&Plane { normal, dist: -512.0 }, ON_EPSILON, true) {
+                        Some(c) => w = c,
+                        None => return Ok(()),
+                    }
+                }
+            }
+            // An extra oblique clip so the pieces are not only box-shaped.
+            if let Some(c) = w.clip(&Plane { normal: clip_n, dist: -100.0 }, ON_EPSILON, true) {
+                w = c;
+            }
+            proptest::prop_assume!(w.area() > 1.0);
+            let cut = Plane { normal: cut_n, dist: cut_d };
+            let s = w.split(&cut, ON_EPSILON);
+            let area = |p: &Option<Winding>| p.as_ref().map_or(0.0, Winding::area);
+            let total = area(&s.front) + area(&s.back);
+            // Points within the epsilon go to both sides, so a sliver may be counted twice.
+            let slack = 1e-9 * w.area() + 4.0 * ON_EPSILON * w.bounds().size().length();
+            proptest::prop_assert!((total - w.area()).abs() <= slack, "{} vs {}", total, w.area());
+            if let Some(f) = &s.front {
+                proptest::prop_assert!(f.points.iter().all(|&p| cut.distance(p) >= -ON_EPSILON * 1.0001));
+            }
+            if let Some(b) = &s.back {
+                proptest::prop_assert!(b.points.iter().all(|&p| cut.distance(p) <= ON_EPSILON * 1.0001));
+            }
+        }
+    }
+
     #[test]
     fn collinear_points_make_no_plane() {
         assert!(Plane::from_points(DVec3::ZERO, DVec3::X, DVec3::X * 2.0).is_none());
