@@ -11,7 +11,13 @@
 //!   [`poly::CLIP_EPSILON`] band beyond its plane, separating planes are accepted only when they
 //!   separate within [`poly::SEPARATOR_EPSILON`], and only portals within
 //!   [`base::COPLANAR_EPSILON`] of a plane are taken as lying in it, so a leaf 0.01 units thick or
-//!   nearly coplanar portals pass sight.
+//!   nearly coplanar portals pass sight. Lines that only graze an edge (a set of no width, such as
+//!   a line through a row of exactly aligned wall corners) are not sight lines: a winding that at
+//!   most touches a clipping plane, within [`poly::TOUCH_EPSILON`], is gone.
+//! - **Symmetry prunes**: one-way portals `p` and `p ^ 1` are each other's reverse, and a line
+//!   from `r` through `s` runs backwards from `s ^ 1` through `r ^ 1`; so `s` is cleared from row
+//!   `r` whenever row `s ^ 1` lacks `r ^ 1` ([`symmetry`]), before the flow and after every batch.
+//!   Rows stay supersets of the truth and later flows narrow by them.
 //! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
 //!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
 //! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
@@ -28,6 +34,7 @@ mod flow;
 mod graph;
 mod poly;
 mod state;
+mod symmetry;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -37,7 +44,7 @@ use rayon::prelude::*;
 use sightline_formats::prt::PortalFile;
 
 pub use base::COPLANAR_EPSILON;
-pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON};
+pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 
 /// Portals per deterministic flow batch (a portal sees the results of earlier batches only).
 pub const FLOW_BATCH: usize = 48;
@@ -342,6 +349,9 @@ fn flow_all(
         stats.chains = st.chains;
         stats.resumed_portals = done;
     }
+    // Every pair of rows ends up as the AND of all values either held, so applying this after
+    // loading checkpointed rows gives the same rows as the uninterrupted run.
+    symmetry::tighten_all(&mut test, words, n);
     let counter = AtomicUsize::new(done);
     let mut last_save = Instant::now();
     while done < n {
@@ -363,6 +373,9 @@ fn flow_all(
         for (&p, (row, chains)) in batch.iter().zip(rows) {
             test[p * words..(p + 1) * words].copy_from_slice(&row);
             stats.chains += chains;
+        }
+        for &p in batch {
+            symmetry::tighten_portal(&mut test, words, n, p);
         }
         done += batch.len();
         let stop = opts.stop_after.is_some_and(|s| done >= s) && done < n;

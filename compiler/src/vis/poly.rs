@@ -3,14 +3,23 @@
 //!
 //! Every clip keeps the part of a winding where `plane.distance(x) >= -CLIP_EPSILON`: the plane is
 //! pushed [`CLIP_EPSILON`] units outward before cutting, so a clip can only keep more than the
-//! exact answer, never less. A clip whose result would not fit [`CAP`] points keeps the input
-//! whole (also keeping more).
+//! exact answer, never less, except that a winding with no point more than [`TOUCH_EPSILON`] in
+//! front of the exact plane is gone: it only touches the plane, and lines that merely graze an
+//! edge carry no sight. A clip whose result would not fit [`CAP`] points keeps the input whole
+//! (also keeping more).
 
 use glam::DVec3;
 use sightline_formats::geom::Plane;
 
 /// How far beyond a clipping plane a winding is kept (units). Rounds every clip toward visible.
 pub const CLIP_EPSILON: f64 = 0.01;
+
+/// A clip leaves nothing unless some point of the winding lies more than this in front of the
+/// exact plane (units). A winding that at most touches the plane passes only lines that graze it
+/// (a set of no width, such as a line running exactly through a row of wall corners); the band of
+/// [`CLIP_EPSILON`] must not carry those from clip to clip. Openings wider than about ten times this
+/// (1e-5 units) still pass sight.
+pub const TOUCH_EPSILON: f64 = 1e-6;
 
 /// Distance under which a point counts as lying on a candidate separating plane. Accepting a
 /// plane requires every pass point at `>= -SEPARATOR_EPSILON`; a tiny value only makes us reject
@@ -81,26 +90,28 @@ impl Poly {
     /// winding: one dot product when the sphere lies on one side.
     #[inline]
     pub fn clip_in(&mut self, bound: &Sphere, plane: &Plane, eps: f64, tmp: &mut Poly) -> Clip {
-        let d = plane.distance(bound.center) + eps;
-        if d >= bound.radius {
+        let c = plane.distance(bound.center);
+        if c + eps >= bound.radius {
             return Clip::Whole;
         }
-        if d < -bound.radius {
+        if c + bound.radius <= TOUCH_EPSILON {
             self.n = 0;
             return Clip::Gone;
         }
         self.clip(plane, eps, tmp)
     }
 
-    /// Keep the part with `plane.distance(x) >= -eps` (the plane pushed outward by `eps`).
+    /// Keep the part with `plane.distance(x) >= -eps` (the plane pushed outward by `eps`);
+    /// nothing when no point lies more than [`TOUCH_EPSILON`] in front of the exact plane.
     /// `tmp` is scratch space.
     pub fn clip(&mut self, plane: &Plane, eps: f64, tmp: &mut Poly) -> Clip {
         let n = self.n;
         let dist = &mut tmp.dist;
         let (mut front, mut back) = (false, false);
         for (d, q) in dist.iter_mut().zip(&self.p[..n]) {
-            *d = plane.distance(*q) + eps;
-            front |= *d > 0.0;
+            let exact = plane.distance(*q);
+            *d = exact + eps;
+            front |= exact > TOUCH_EPSILON;
             back |= *d < 0.0;
         }
         if !back {
@@ -284,11 +295,26 @@ mod tests {
         assert_eq!(w.clip(&plane, CLIP_EPSILON, &mut tmp), Clip::Cut);
         let min_y = w.points().iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
         assert!((min_y - (32.0 - CLIP_EPSILON)).abs() < 1e-9);
-        // A winding just touching the plane from behind survives as a sliver.
-        let mut w = square(0.0, 32.0);
-        assert_eq!(w.clip(&plane, CLIP_EPSILON, &mut tmp), Clip::Cut);
         let mut w = square(0.0, 31.0);
         assert_eq!(w.clip(&plane, CLIP_EPSILON, &mut tmp), Clip::Gone);
+    }
+
+    #[test]
+    fn a_winding_that_only_touches_the_plane_is_gone() {
+        let mut tmp = Poly::default();
+        let plane = Plane { normal: DVec3::Y, dist: 32.0 };
+        // Touching from behind along an edge: only grazing lines, gone.
+        let mut w = square(0.0, 32.0);
+        assert_eq!(w.clip(&plane, CLIP_EPSILON, &mut tmp), Clip::Gone);
+        // Reaching 1e-4 beyond the plane: a real (thin) opening, kept with the band behind it.
+        let mut w = square(0.0, 32.0001);
+        assert_eq!(w.clip(&plane, CLIP_EPSILON, &mut tmp), Clip::Cut);
+        let min_y = w.points().iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+        assert!((min_y - (32.0 - CLIP_EPSILON)).abs() < 1e-9);
+        // The sphere shortcut agrees.
+        let mut w = square(0.0, 32.0);
+        let bound = Sphere { center: DVec3::new(0.0, 16.0, 16.0), radius: 16.0 * 2f64.sqrt() };
+        assert_eq!(w.clip_in(&bound, &plane, CLIP_EPSILON, &mut tmp), Clip::Gone);
     }
 
     #[test]
