@@ -117,7 +117,7 @@ impl Flow {
         let f = &mut self.frames[0];
         f.leaf = p.leaf;
         f.plane = Some(p.plane);
-        f.source.load(g.winding(p));
+        f.source.load(g.winding(p), p.plane.normal);
         f.pass.n = 0;
         f.might.copy_from_slice(&test[base * self.words..(base + 1) * self.words]);
         f.lo = f.might.iter().position(|&w| w != 0).unwrap_or(0);
@@ -187,7 +187,7 @@ impl Flow {
             }
             // Target: in front of the source portal (quick sphere test first).
             let tmp = &mut self.tmp;
-            next.pass.load(g.winding(p));
+            next.pass.load(g.winding(p), p.plane.normal);
             let target = Sphere { center: p.center, radius: p.radius };
             if next.pass.clip_in(&target, &head.plane, CLIP_EPSILON, tmp) == Clip::Gone {
                 continue;

@@ -38,6 +38,7 @@ mod symmetry;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -354,21 +355,26 @@ fn flow_all(
     symmetry::tighten_all(&mut test, words, n);
     let counter = AtomicUsize::new(done);
     let mut last_save = Instant::now();
+    // One flow state per worker thread, reused across batches.
+    let flows: Vec<Mutex<flow::Flow>> = (0..rayon::current_num_threads().max(1))
+        .map(|_| Mutex::new(flow::Flow::new(words, g.num_clusters(), opts.level)))
+        .collect();
     while done < n {
         let batch = &order[done..(done + FLOW_BATCH).min(n)];
+        // One portal per task, so idle threads steal single portals and a batch ends evenly.
         let rows: Vec<(Vec<u64>, u64)> = batch
             .par_iter()
-            .map_init(
-                || flow::Flow::new(words, g.num_clusters(), opts.level),
-                |f, &p| {
-                    let mut out = vec![0u64; words];
-                    f.chains = 0;
-                    f.run(g, &test, p, &mut out);
-                    let d = counter.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(VisProgress { phase: VisPhase::Flow, done: d, total: n });
-                    (out, f.chains)
-                },
-            )
+            .with_max_len(1)
+            .map(|&p| {
+                let slot = rayon::current_thread_index().unwrap_or(0) % flows.len();
+                let mut f = flows[slot].lock().unwrap_or_else(PoisonError::into_inner);
+                let mut out = vec![0u64; words];
+                f.chains = 0;
+                f.run(g, &test, p, &mut out);
+                let d = counter.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(VisProgress { phase: VisPhase::Flow, done: d, total: n });
+                (out, f.chains)
+            })
             .collect();
         for (&p, (row, chains)) in batch.iter().zip(rows) {
             test[p * words..(p + 1) * words].copy_from_slice(&row);

@@ -43,15 +43,18 @@ pub const CAP: usize = 72;
 pub struct Poly {
     /// Number of points in use.
     pub n: usize,
-    /// The points; only `..n` are meaningful.
+    /// The points; only `..n` are meaningful. Seen from the side `normal` points to, they run
+    /// counter-clockwise.
     pub p: [DVec3; CAP],
+    /// Unit normal of the polygon's plane (kept through clips).
+    pub normal: DVec3,
     /// Scratch for [`Poly::clip`] when this polygon is its `tmp`: distances of the clipped points.
     dist: [f64; CAP],
 }
 
 impl Default for Poly {
     fn default() -> Self {
-        Self { n: 0, p: [DVec3::ZERO; CAP], dist: [0.0; CAP] }
+        Self { n: 0, p: [DVec3::ZERO; CAP], normal: DVec3::Z, dist: [0.0; CAP] }
     }
 }
 
@@ -67,17 +70,20 @@ pub enum Clip {
 }
 
 impl Poly {
-    /// Load points (at most [`CAP`]; callers pass `.prt` windings of at most 64 points).
-    pub fn load(&mut self, pts: &[DVec3]) {
+    /// Load points (at most [`CAP`]; callers pass `.prt` windings of at most 64 points) running
+    /// counter-clockwise around the unit `normal`.
+    pub fn load(&mut self, pts: &[DVec3], normal: DVec3) {
         let n = pts.len().min(CAP);
         self.p[..n].copy_from_slice(&pts[..n]);
         self.n = n;
+        self.normal = normal;
     }
 
-    /// Copy another polygon's used points.
+    /// Copy another polygon's used points and normal.
     pub fn copy_from(&mut self, other: &Poly) {
         self.p[..other.n].copy_from_slice(&other.p[..other.n]);
         self.n = other.n;
+        self.normal = other.normal;
     }
 
     /// The used points.
@@ -171,27 +177,26 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
     }
     let a_pts = &a.p[..an];
     let b_pts = &b.p[..bn];
-    let mut newell = DVec3::ZERO;
-    for i in 0..an {
-        newell += a_pts[i].cross(a_pts[if i + 1 == an { 0 } else { i + 1 }]);
+    // Heights of `b` above `a`'s plane (the same for every edge of `a`).
+    let mut y = a.normal;
+    let ya = y.dot(a_pts[0]);
+    let mut heights = [0.0f64; CAP];
+    let mut sum = 0.0;
+    for (h, q) in heights.iter_mut().zip(b_pts) {
+        *h = y.dot(*q) - ya;
+        sum += *h;
     }
-    let Some(mut y) = newell.try_normalize() else { return };
-    let ca = a_pts.iter().copied().sum::<DVec3>() / an as f64;
-    let cb = b_pts.iter().copied().sum::<DVec3>() / bn as f64;
-    // Newell's normal turns the points counter-clockwise, so `edge × normal` points out of `a`;
-    // facing `y` toward `b` may flip that.
-    let outward = if (cb - ca).dot(y) < 0.0 {
+    // `a` turns counter-clockwise about its normal, so `edge × normal` points out of `a`; facing
+    // `y` toward `b` may flip that.
+    let outward = if sum < 0.0 {
         y = -y;
+        for h in &mut heights[..bn] {
+            *h = -*h;
+        }
         -1.0
     } else {
         1.0
     };
-    // Heights of `b` above `a`'s plane (the same for every edge of `a`).
-    let ya = y.dot(ca);
-    let mut heights = [0.0f64; CAP];
-    for (h, q) in heights.iter_mut().zip(b_pts) {
-        *h = y.dot(*q) - ya;
-    }
     let heights = &heights[..bn];
     for i in 0..an {
         let ai = a_pts[i];
@@ -276,15 +281,24 @@ mod tests {
 
     const HUGE: Sphere = Sphere { center: DVec3::ZERO, radius: 1e9 };
 
-    fn square(x: f64, size: f64) -> Poly {
+    /// A polygon from points, with the normal they turn counter-clockwise about (Newell).
+    fn poly(pts: &[DVec3]) -> Poly {
+        let mut normal = DVec3::ZERO;
+        for (i, a) in pts.iter().enumerate() {
+            normal += a.cross(pts[(i + 1) % pts.len()]);
+        }
         let mut p = Poly::default();
-        p.load(&[
+        p.load(pts, normal.normalize());
+        p
+    }
+
+    fn square(x: f64, size: f64) -> Poly {
+        poly(&[
             DVec3::new(x, 0.0, 0.0),
             DVec3::new(x, size, 0.0),
             DVec3::new(x, size, size),
             DVec3::new(x, 0.0, size),
-        ]);
-        p
+        ])
     }
 
     #[test]
@@ -331,8 +345,7 @@ mod tests {
         let mut tmp = Poly::default();
         let mut t = square(128.0, 64.0);
         assert!(clip_to_separators(&a, &b, false, &mut t, &HUGE, &mut tmp));
-        let mut far = Poly::default();
-        far.load(&[
+        let mut far = poly(&[
             DVec3::new(128.0, 200.0, 0.0),
             DVec3::new(128.0, 264.0, 0.0),
             DVec3::new(128.0, 264.0, 64.0),
@@ -353,9 +366,7 @@ mod tests {
         ) {
             let mk = |x: f64, y0: f64, y1: f64| {
                 let (lo, hi) = (y0.min(y1), y0.max(y1) + 1.0);
-                let mut p = Poly::default();
-                p.load(&[DVec3::new(x, lo, lo), DVec3::new(x, hi, lo), DVec3::new(x, hi, hi + 3.0), DVec3::new(x, lo, hi)]);
-                p
+                poly(&[DVec3::new(x, lo, lo), DVec3::new(x, hi, lo), DVec3::new(x, hi, hi + 3.0), DVec3::new(x, lo, hi)])
             };
             let a = mk(0.0, ys[0], ys[1]);
             let b = mk(gap, ys[2], ys[3]);

@@ -118,3 +118,26 @@ fn rejects_bad_level_and_inconsistent_files() {
     bad.leaf_clusters = vec![0, 7];
     assert!(matches!(run(&bad, &VisOptions::default(), &none()), Err(VisError::Invalid(_))));
 }
+
+#[test]
+fn one_way_windings_turn_counter_clockwise_about_their_normal() {
+    // The separator search relies on it (see `poly::Poly::normal`), whichever way the file's
+    // windings face.
+    for toward_neg in [true, false] {
+        let mut prt = corridor(&[0.0, 8.0], &[64.0, 64.0]);
+        for p in &mut prt.portals {
+            let w = &p.winding;
+            let n = w.plane().expect("plane").normal;
+            if (n.x < 0.0) != toward_neg {
+                p.winding = w.reversed();
+            }
+        }
+        let g = graph::Graph::new(&prt);
+        assert_eq!(g.portals.len(), 4);
+        for p in &g.portals {
+            let w = g.winding(p);
+            let newell: DVec3 = (0..w.len()).map(|i| w[i].cross(w[(i + 1) % w.len()])).sum();
+            assert!(newell.normalize().dot(p.plane.normal) > 0.999, "portal into {}", p.leaf);
+        }
+    }
+}
