@@ -4,11 +4,13 @@
 //! reference's, and ray sampling finds no visible pair it misses.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use sightline::cmd::vis::Args;
 use sightline::validate::pvs::level_pvs;
 use sightline::validate::{Options, OracleChoice, load, validate};
-use sightline_compiler::vis::{self, VisError, VisOptions, VisResult};
+use sightline_compiler::vis::{self, VisError, VisOptions, VisPhase, VisProgress, VisResult};
 use sightline_formats::bsp::{self, lump};
 use sightline_formats::prt::{self, PortalFile};
 
@@ -80,6 +82,39 @@ fn resumed_run_equals_uninterrupted_run() {
     assert!(resumed.stats.resumed_portals >= 700);
     assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
     assert_eq!(resumed.stats.chains, whole.stats.chains, "work is counted across the resume");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn cancelled_run_saves_its_state_and_resumes_to_the_same_pvs() {
+    // What Ctrl-C does to `sightline vis --state`: the flag turns on mid-flow.
+    let Some(prt) = portal_file("dm1.prt") else { return };
+    let dir = temp_dir("cancel");
+    let state = dir.join("dm1.state");
+    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
+    let flag = Arc::new(AtomicBool::new(false));
+    let opts = VisOptions {
+        threads: 2,
+        state: Some(state.clone()),
+        cancel: Some(flag.clone()),
+        ..VisOptions::default()
+    };
+    let on_progress = |p: VisProgress| {
+        if p.phase == VisPhase::Flow && p.done >= 500 {
+            flag.store(true, Ordering::Relaxed);
+        }
+    };
+    match vis::run(&prt, &opts, &on_progress) {
+        Err(VisError::Interrupted { done, total }) => {
+            assert!(done >= 500 && done < total, "{done} of {total}")
+        }
+        other => panic!("expected an interruption, got {other:?}"),
+    }
+    assert!(state.is_file());
+    let resumed = vis::run(&prt, &VisOptions { cancel: None, ..opts }, &|_| {}).unwrap();
+    assert!(resumed.stats.resumed_portals >= 500);
+    assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
+    assert!(!state.exists(), "a finished run removes its state");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

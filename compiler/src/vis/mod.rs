@@ -37,8 +37,8 @@ mod state;
 mod symmetry;
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Mutex, PoisonError};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -66,6 +66,9 @@ pub struct VisOptions {
     /// Stop (with [`VisError::Interrupted`], after a checkpoint) once at least this many flow
     /// portals are finished: for tests of resuming.
     pub stop_after: Option<usize>,
+    /// Stop the same way at the next batch boundary once this flag is set (for example by a
+    /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
+    pub cancel: Option<Arc<AtomicBool>>,
 }
 
 impl Default for VisOptions {
@@ -77,6 +80,7 @@ impl Default for VisOptions {
             state: None,
             checkpoint_interval: Duration::from_secs(180),
             stop_after: None,
+            cancel: None,
         }
     }
 }
@@ -384,7 +388,8 @@ fn flow_all(
             symmetry::tighten_portal(&mut test, words, n, p);
         }
         done += batch.len();
-        let stop = opts.stop_after.is_some_and(|s| done >= s) && done < n;
+        let cancelled = opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+        let stop = (opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
         if let Some(path) = &opts.state
             && (stop || (done < n && last_save.elapsed() >= opts.checkpoint_interval))
         {

@@ -13,9 +13,12 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+
 use sightline_compiler::vis::{self, VisOptions, VisPhase, VisProgress, VisResult, VisStats};
 use sightline_formats::bsp::{self, Bsp};
 use sightline_formats::prt::{self, PortalFile};
@@ -104,6 +107,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         state: args.state.clone(),
         checkpoint_interval: std::time::Duration::from_secs(args.checkpoint_secs.max(1)),
         stop_after: args.stop_after,
+        cancel: Some(ctrl_c_flag()),
     };
     let result = compute(&prt, &opts, args.json)?;
     let t1 = Instant::now();
@@ -157,6 +161,25 @@ fn read_prt(path: &Path, beside_bsp: bool) -> anyhow::Result<PortalFile> {
     Ok(prt::read(&text, &path.display().to_string())?)
 }
 
+/// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. If a handler
+/// cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
+fn ctrl_c_flag() -> Arc<AtomicBool> {
+    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let handler = flag.clone();
+        // A second Ctrl-C while the first is being honoured ends the process at once.
+        let _ = ctrlc::set_handler(move || {
+            if handler.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
+        });
+        flag
+    })
+    .clone()
+}
+
 /// Run vis with a progress bar (hidden under `--json` or without a terminal).
 fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<VisResult> {
     let base = crate::progress::bar("base", 0, quiet);
@@ -171,8 +194,13 @@ fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<V
     flow.finish_and_clear();
     match result {
         Ok(r) => Ok(r),
-        Err(vis::VisError::Interrupted { done, total }) => {
+        Err(vis::VisError::Interrupted { done, total }) if opts.state.is_some() => {
             bail!("stopped after {done} of {total} portals; run again with the same --state to resume")
+        }
+        Err(vis::VisError::Interrupted { done, total }) => {
+            bail!(
+                "stopped after {done} of {total} portals; nothing was saved (give --state FILE to make a run resumable)"
+            )
         }
         Err(e) => Err(e.into()),
     }
