@@ -381,11 +381,8 @@ fn flow_all(
             })
             .collect();
         for (&p, (row, chains)) in batch.iter().zip(rows) {
-            test[p * words..(p + 1) * words].copy_from_slice(&row);
+            symmetry::replace_row(&mut test, words, p, &row);
             stats.chains += chains;
-        }
-        for &p in batch {
-            symmetry::tighten_portal(&mut test, words, n, p);
         }
         done += batch.len();
         let cancelled = opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
