@@ -34,7 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if let Some(hit) = world.trace(centre, camera.position) {
             println!("frame {frame}: blocked at {:?}", hit.point);
         }
-        // Culling: PVS row decoded only when the eye changes cluster, then the frustum walk.
+        // Culling: the eye cluster's PVS (kept as a tree since load), then the frustum walk.
         pvs.cull(&world, &camera.view(), &mut scratch, &mut visible);
         // Drawing: leaves and their faces arrive nearest first (good for early-z).
         drawn_faces += visible.faces.len(); // submit `visible.faces` to the GPU here

@@ -74,16 +74,21 @@ pub struct Frustum {
     pub(crate) normals: [Vec3A; 6],
     /// Plane distances (`normal · p = dist` on the plane).
     pub(crate) dists: [f32; 6],
-    /// The planes packed for the box test (normal, |normal|, dist), padded to 8 so that an index
-    /// `& 7` needs no bounds check; entries 6 and 7 are never selected by a mask.
-    packed: [PackedPlane; 8],
+    /// The planes transposed for the box test, four per group (lanes 6 and 7 are padding that
+    /// every box is inside, and no mask selects them).
+    lanes: [PlaneLanes; 2],
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct PackedPlane {
-    normal: Vec3A,
-    abs_normal: Vec3A,
-    dist: f32,
+/// Four planes, one per SIMD lane: normal components, their absolute values, distances.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PlaneLanes {
+    nx: Vec4,
+    ny: Vec4,
+    nz: Vec4,
+    ax: Vec4,
+    ay: Vec4,
+    az: Vec4,
+    d: Vec4,
 }
 
 /// Result of a box against a frustum plane set.
@@ -100,11 +105,22 @@ impl Frustum {
     pub const ALL: u8 = 0x3f;
 
     fn from_planes(planes: [(Vec3A, f32); 6]) -> Self {
-        let mut packed = [PackedPlane::default(); 8];
-        for (slot, &(normal, dist)) in packed.iter_mut().zip(&planes) {
-            *slot = PackedPlane { normal, abs_normal: normal.abs(), dist };
-        }
-        Self { normals: planes.map(|p| p.0), dists: planes.map(|p| p.1), packed }
+        // Padding planes: zero normal, distance -1, so every box is inside them.
+        let lanes = [0, 4].map(|g| {
+            let p: [(Vec3A, f32); 4] =
+                std::array::from_fn(|i| planes.get(g + i).copied().unwrap_or((Vec3A::ZERO, -1.0)));
+            let lane = |f: fn(&(Vec3A, f32)) -> f32| Vec4::from_array(p.map(|q| f(&q)));
+            PlaneLanes {
+                nx: lane(|q| q.0.x),
+                ny: lane(|q| q.0.y),
+                nz: lane(|q| q.0.z),
+                ax: lane(|q| q.0.x.abs()),
+                ay: lane(|q| q.0.y.abs()),
+                az: lane(|q| q.0.z.abs()),
+                d: lane(|q| q.1),
+            }
+        });
+        Self { normals: planes.map(|p| p.0), dists: planes.map(|p| p.1), lanes }
     }
 
     /// The frustum of a camera.
@@ -151,27 +167,33 @@ impl Frustum {
     }
 
     /// Test a box (centre, half-size) against the planes in `mask`; planes the box is fully inside
-    /// are cleared from the returned mask. One dot product per plane for a rejection, two at most
-    /// (the centre/extent form of the p/n-vertex test).
+    /// are cleared from the returned mask. The centre/extent form of the p/n-vertex test, all
+    /// eight plane lanes at once without branches: per plane `d = n · c - dist` and
+    /// `r = |n| · e`; outside when `d + r < 0`, fully inside when `d - r >= 0` (each dot product
+    /// summed as `(x + y) + z`, so results equal a plane-by-plane scalar test bit for bit).
     #[inline]
     pub fn test_box(&self, center: Vec3A, extent: Vec3A, mask: u8) -> BoxSide {
-        let mask = mask & Self::ALL;
-        let mut out = mask;
-        let mut bits = mask;
-        while bits != 0 {
-            let p = &self.packed[bits.trailing_zeros() as usize & 7];
-            let i = bits.trailing_zeros();
-            bits &= bits - 1;
-            let dist = p.normal.dot(center) - p.dist;
-            let radius = p.abs_normal.dot(extent);
-            if dist + radius < 0.0 {
-                return BoxSide::Outside;
-            }
-            if dist - radius >= 0.0 {
-                out &= !(1 << i);
-            }
+        match self.classify(center.to_array(), extent.to_array(), mask) {
+            (true, m) => BoxSide::Inside(m),
+            (false, _) => BoxSide::Outside,
         }
-        BoxSide::Inside(out)
+    }
+
+    /// [`Frustum::test_box`] as `(not outside, remaining mask)`, without branches.
+    #[inline(always)]
+    pub(crate) fn classify(&self, c: [f32; 3], e: [f32; 3], mask: u8) -> (bool, u8) {
+        let (cx, cy, cz) = (Vec4::splat(c[0]), Vec4::splat(c[1]), Vec4::splat(c[2]));
+        let (ex, ey, ez) = (Vec4::splat(e[0]), Vec4::splat(e[1]), Vec4::splat(e[2]));
+        let mut outside = 0;
+        let mut inside = 0;
+        for (g, l) in self.lanes.iter().enumerate() {
+            let dist = l.nx * cx + l.ny * cy + l.nz * cz - l.d;
+            let radius = l.ax * ex + l.ay * ey + l.az * ez;
+            outside |= (dist + radius).cmplt(Vec4::ZERO).bitmask() << (4 * g);
+            inside |= (dist - radius).cmpge(Vec4::ZERO).bitmask() << (4 * g);
+        }
+        let mask = mask & Self::ALL;
+        (outside as u8 & mask == 0, mask & !(inside as u8))
     }
 
     /// The six planes as (inward unit normal, distance): left, right, bottom, top, near, far.

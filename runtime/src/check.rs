@@ -3,6 +3,8 @@
 
 use glam::Vec3A;
 
+use crate::camera::{Frustum, View};
+use crate::scratch::Visible;
 use crate::world::{LeafId, World};
 
 /// Every leaf region of the world tree as the list of half-spaces on its path from the root:
@@ -100,4 +102,120 @@ pub fn order_violations(
         }
     }
     bad
+}
+
+/// The straightforward front-to-back walk the fast walks must reproduce exactly: recursive over
+/// the level's own node and leaf tables, marks recomputed from scratch (a leaf is marked when
+/// `marked(leaf)`, a node when some open leaf below it is), each box tested plane by plane in
+/// scalar code with the plane mask passed down, near child (the eye's side, front when on the
+/// plane) first, each face output at its first leaf. Slow; for tests.
+pub fn reference_walk(world: &World, view: &View, marked: &dyn Fn(LeafId) -> bool) -> Visible {
+    let mut out = Visible::default();
+    let mut seen = std::collections::HashSet::new();
+    let mut any_below = std::collections::HashMap::new();
+    if subtree_marked(world, world.root, marked, &mut any_below) {
+        reference_visit(world, view, world.root, Frustum::ALL, &any_below, marked, &mut seen, &mut out);
+    }
+    out
+}
+
+/// Whether any open, marked leaf is below `child`, memoised per node.
+fn subtree_marked(
+    world: &World,
+    child: i32,
+    marked: &dyn Fn(LeafId) -> bool,
+    memo: &mut std::collections::HashMap<i32, bool>,
+) -> bool {
+    if child < 0 {
+        let l = (!child) as LeafId;
+        return world.leaf_contents(l).is_some_and(|c| c.is_open()) && marked(l);
+    }
+    let Some(node) = world.nodes.get(child as usize) else { return false };
+    let children = node.children;
+    let any = children.iter().fold(false, |acc, &c| subtree_marked(world, c, marked, memo) | acc);
+    memo.insert(child, any);
+    any
+}
+
+#[allow(clippy::too_many_arguments)]
+fn reference_visit(
+    world: &World,
+    view: &View,
+    child: i32,
+    mask: u8,
+    any_below: &std::collections::HashMap<i32, bool>,
+    marked: &dyn Fn(LeafId) -> bool,
+    seen: &mut std::collections::HashSet<u32>,
+    out: &mut Visible,
+) {
+    if child >= 0 {
+        let Some(node) = world.nodes.get(child as usize) else { return };
+        let Some(mask) = scalar_box_test(&view.frustum, node.center, node.extent, mask) else { return };
+        let back_first = node.normal.dot(view.eye) - node.dist < 0.0;
+        let [front, back] = node.children;
+        let (near, far) = if back_first { (back, front) } else { (front, back) };
+        for c in [near, far] {
+            let is_marked = if c >= 0 {
+                any_below.get(&c).copied().unwrap_or(false)
+            } else {
+                let l = (!c) as LeafId;
+                world.leaf_contents(l).is_some_and(|k| k.is_open()) && marked(l)
+            };
+            if is_marked {
+                reference_visit(world, view, c, mask, any_below, marked, seen, out);
+            }
+        }
+    } else {
+        let l = (!child) as LeafId;
+        let Some(b) = world.leaf_bounds(l) else { return };
+        if scalar_box_test(&view.frustum, b.center, b.extent, mask).is_none() {
+            return;
+        }
+        out.leaves.push(l);
+        for &f in world.leaf_faces(l) {
+            if seen.insert(f) {
+                out.faces.push(f);
+            }
+        }
+    }
+}
+
+/// The plane-by-plane box test: `None` when outside a plane of `mask`, else the planes the box
+/// still crosses.
+fn scalar_box_test(fr: &Frustum, center: Vec3A, extent: Vec3A, mask: u8) -> Option<u8> {
+    let mut out = mask;
+    for (i, (n, d)) in fr.planes().into_iter().enumerate() {
+        if mask & (1 << i) == 0 {
+            continue;
+        }
+        let dist = n.dot(center) - d;
+        let radius = n.abs().dot(extent);
+        if dist + radius < 0.0 {
+            return None;
+        }
+        if dist - radius >= 0.0 {
+            out &= !(1 << i);
+        }
+    }
+    Some(out)
+}
+
+/// The leaves in the PVS of the cluster holding `eye` (every open leaf without vis or with the
+/// eye in solid), from the RLE row, for [`reference_walk`].
+pub fn pvs_leaves(world: &World, eye: Vec3A) -> Vec<bool> {
+    let mut marked = vec![false; world.num_leaves()];
+    let cluster = world.leaf_cluster(world.leaf_at(eye)).filter(|_| world.has_vis());
+    match cluster {
+        Some(c) => {
+            let mut row = crate::pvs::Bitset::new(0);
+            world.decode_pvs(c, &mut row);
+            for v in row.iter_ones() {
+                for &l in world.cluster_leaves(v as u32) {
+                    marked[l as usize] = true;
+                }
+            }
+        }
+        None => marked.fill(true),
+    }
+    marked
 }

@@ -85,6 +85,9 @@ pub enum LoadError {
         #[source]
         source: RleError,
     },
+    /// The level's GVS cells do not fit its faces.
+    #[error("GVS data: {0}")]
+    Gvs(#[from] crate::backend::gvs::GvsError),
     /// The `.slvl` file could not be read.
     #[error(transparent)]
     Slvl(#[from] sightline_formats::slvl::SlvlError),

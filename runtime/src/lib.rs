@@ -24,6 +24,7 @@ pub mod error;
 #[cfg(feature = "ffi")]
 #[allow(unsafe_code)]
 pub mod ffi;
+pub(crate) mod layout;
 pub mod load;
 pub mod locate;
 pub mod poses;

@@ -1,8 +1,8 @@
 //! Per-caller working memory for the walk, and the output lists.
 //!
-//! A [`Scratch`] belongs to one caller (one thread, one view) and is reused every frame: marks use
-//! generation counters instead of being cleared, and every buffer keeps its capacity, so after
-//! the first frame on a world nothing is allocated. Using a scratch with another world resizes it
+//! A [`Scratch`] belongs to one caller (one thread, one view) and is reused every frame: face marks
+//! and element marks use generation counters instead of being cleared, and every buffer keeps its
+//! capacity, so after the first frame on a world nothing is allocated. Using a scratch with another world resizes it
 //! once.
 
 use glam::Vec3A;
@@ -19,7 +19,8 @@ pub struct FrameStats {
     pub nodes_visited: u32,
     /// Box–frustum tests made.
     pub box_tests: u32,
-    /// True when the marks were reused from the previous frame (same eye leaf).
+    /// PVS backend: the eye is in the same cluster as in this scratch's previous PVS frame (no
+    /// row to decode even without PVS trees).
     pub marks_reused: bool,
     /// Portals crossed by the portal backend.
     pub portals_crossed: u32,
@@ -53,18 +54,18 @@ impl Visible {
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
     pub(crate) world_id: u64,
-    /// Generation of the current leaf/node marks.
+    /// Element marks ([`crate::layout`]) of generation `mark_gen`, made by the portal search, or
+    /// by the PVS backend when the world keeps no PVS trees.
+    pub(crate) marks: Vec<u32>,
     pub(crate) mark_gen: u32,
-    pub(crate) leaf_mark: Vec<u32>,
-    pub(crate) node_mark: Vec<u32>,
-    /// `(eye leaf)` the PVS marks were made for, when they are PVS marks.
+    /// The PVS key (eye cluster, `u32::MAX` for "everything") `marks` holds, if they are PVS marks.
+    pub(crate) marks_key: Option<u32>,
+    /// Leaves marked in `marks` when they are PVS marks.
+    pub(crate) marks_count: u32,
+    /// The PVS key of the last PVS frame (for [`FrameStats::marks_reused`]).
     pub(crate) pvs_key: Option<u32>,
-    pub(crate) pvs_marked: u32,
-    /// Generation of the current frame, for face de-duplication.
-    pub(crate) frame_gen: u32,
-    pub(crate) face_mark: Vec<u32>,
+    pub(crate) walk: WalkState,
     pub(crate) row: Bitset,
-    pub(crate) stack: Vec<(i32, u8)>,
     // Portal search.
     pub(crate) on_path: Vec<bool>,
     pub(crate) planes: Vec<(Vec3A, f32)>,
@@ -72,6 +73,28 @@ pub struct Scratch {
     pub(crate) poly_b: Vec<Vec3A>,
     /// Counters of the last frame.
     pub stats: FrameStats,
+}
+
+/// The walk's part of a [`Scratch`]: its stack and the face marks.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WalkState {
+    /// Generation of the current frame, for face de-duplication.
+    pub frame_gen: u32,
+    pub face_mark: Vec<u32>,
+    /// The walk's stack: `depth + 3` slots, never resized by the walk.
+    pub stack: Vec<(i32, u8)>,
+}
+
+impl WalkState {
+    /// Start a new frame; returns its generation (for face de-duplication).
+    pub fn next_frame_gen(&mut self) -> u32 {
+        self.frame_gen = self.frame_gen.wrapping_add(1);
+        if self.frame_gen == 0 {
+            self.face_mark.fill(0);
+            self.frame_gen = 1;
+        }
+        self.frame_gen
+    }
 }
 
 impl Scratch {
@@ -88,77 +111,38 @@ impl Scratch {
             return;
         }
         self.world_id = world.id;
-        self.mark_gen = 0;
-        self.frame_gen = 0;
+        self.marks_key = None;
         self.pvs_key = None;
-        self.leaf_mark.clear();
-        self.leaf_mark.resize(world.num_leaves(), 0);
-        self.node_mark.clear();
-        self.node_mark.resize(world.num_nodes(), 0);
-        self.face_mark.clear();
-        self.face_mark.resize(world.num_faces(), 0);
+        self.marks.clear();
+        self.marks.resize(world.tree.mark_slots(), 0);
+        self.mark_gen = 0;
+        self.walk.frame_gen = 0;
+        self.walk.face_mark.clear();
+        self.walk.face_mark.resize(world.num_faces(), 0);
+        self.walk.stack.clear();
+        self.walk.stack.resize(world.depth() + 3, (0, 0));
         self.on_path.clear();
         self.on_path.resize(world.num_leaves(), false);
         self.row.reset(world.num_clusters() as usize);
-        self.stack.clear();
-        self.stack.reserve(2 * world.depth() + 2);
         self.planes.reserve(256);
         self.poly_a.reserve(64);
         self.poly_b.reserve(64);
     }
 
-    /// Start a new set of leaf/node marks; returns its generation.
-    pub(crate) fn next_mark_gen(&mut self) -> u32 {
+    /// Start a new set of marks (not PVS marks until the caller says so).
+    pub(crate) fn next_marks(&mut self) {
         self.mark_gen = self.mark_gen.wrapping_add(1);
         if self.mark_gen == 0 {
-            self.leaf_mark.fill(0);
-            self.node_mark.fill(0);
+            self.marks.fill(0);
             self.mark_gen = 1;
         }
-        self.pvs_key = None;
-        self.mark_gen
+        self.marks_key = None;
     }
 
-    /// Start a new frame; returns its generation (for face de-duplication).
-    pub(crate) fn next_frame_gen(&mut self) -> u32 {
-        self.frame_gen = self.frame_gen.wrapping_add(1);
-        if self.frame_gen == 0 {
-            self.face_mark.fill(0);
-            self.frame_gen = 1;
-        }
-        self.frame_gen
-    }
-
-    /// Mark `leaf` and its ancestors with the current generation ("mark up the tree", stopping
-    /// at the first ancestor already marked). Returns false when it was already marked.
+    /// Mark `leaf` and its ancestors in [`Scratch::marks`] ("mark up the tree", stopping at the
+    /// first ancestor already marked). Returns false when it was already marked (or solid).
     #[inline]
     pub(crate) fn mark_leaf(&mut self, world: &World, leaf: u32) -> bool {
-        let gen_ = self.mark_gen;
-        let Some(m) = self.leaf_mark.get_mut(leaf as usize) else { return false };
-        if *m == gen_ {
-            return false;
-        }
-        *m = gen_;
-        let mut p = world.leaf_parent.get(leaf as usize).copied().unwrap_or(u32::MAX);
-        while let Some(mark) = self.node_mark.get_mut(p as usize) {
-            if *mark == gen_ {
-                break;
-            }
-            *mark = gen_;
-            p = world.node_parent.get(p as usize).copied().unwrap_or(u32::MAX);
-        }
-        true
-    }
-
-    /// Mark every open leaf of the world tree.
-    pub(crate) fn mark_all(&mut self, world: &World) -> u32 {
-        let gen_ = self.mark_gen;
-        for &l in world.open_leaves() {
-            if let Some(m) = self.leaf_mark.get_mut(l as usize) {
-                *m = gen_;
-            }
-        }
-        self.node_mark.fill(gen_);
-        world.open_leaves().len() as u32
+        world.tree.mark_leaf(&mut self.marks, self.mark_gen, leaf)
     }
 }

@@ -135,14 +135,23 @@ fn walk_allocates_nothing_after_warm_up() {
     let mut scratch = Scratch::new(&world);
     let mut out = Visible::for_world(&world);
     let cams = random_cameras(&world, 9, 200);
-    let caps =
-        (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity());
+    let caps = (
+        out.leaves.capacity(),
+        out.faces.capacity(),
+        scratch.walk.stack.capacity(),
+        scratch.planes.capacity(),
+    );
     for cam in &cams {
         Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
     }
     assert_eq!(
         caps,
-        (out.leaves.capacity(), out.faces.capacity(), scratch.stack.capacity(), scratch.planes.capacity())
+        (
+            out.leaves.capacity(),
+            out.faces.capacity(),
+            scratch.walk.stack.capacity(),
+            scratch.planes.capacity()
+        )
     );
 }
 
@@ -325,4 +334,108 @@ fn world_is_shareable_and_scratch_follows_the_world() {
     Pvs.cull(&big, &cam.view(), &mut Scratch::new(&big), &mut fresh);
     assert_eq!(out, fresh);
     assert!(!out.leaves.is_empty());
+}
+
+#[test]
+fn fast_walks_equal_the_reference_walk() {
+    use crate::check::{pvs_leaves, reference_walk};
+    for seed in [12, 13] {
+        let level = pillars(seed);
+        let trees = World::new(&level).expect("valid");
+        assert!(trees.pvs_trees_in_memory());
+        let mut decoding = World::new(&level).expect("valid");
+        decoding.drop_pvs_trees();
+        let (mut s1, mut s2) = (Scratch::new(&trees), Scratch::new(&decoding));
+        let (mut a, mut b) = (Visible::for_world(&trees), Visible::for_world(&decoding));
+        for cam in random_cameras(&trees, seed, 400) {
+            let view = cam.view();
+            let marked = pvs_leaves(&trees, view.eye);
+            let want = reference_walk(&trees, &view, &|l| marked[l as usize]);
+            Pvs.cull(&trees, &view, &mut s1, &mut a);
+            Pvs.cull(&decoding, &view, &mut s2, &mut b);
+            assert_eq!(a, want, "PVS trees vs reference for {cam:?}");
+            assert_eq!(b, want, "decoded marks vs reference for {cam:?}");
+            assert_eq!(s1.stats.marked_leaves, s2.stats.marked_leaves);
+            // A portal frame in between overwrites the scratch marks: the same view again must
+            // decode again, not reuse them.
+            Portal.cull(&decoding, &view, &mut s2, &mut b);
+            Pvs.cull(&decoding, &view, &mut s2, &mut b);
+            assert_eq!(b, want, "decoded marks after a portal frame for {cam:?}");
+        }
+    }
+}
+
+#[test]
+fn simd_box_test_equals_the_scalar_test() {
+    let mut rng = SplitMix64::new(5);
+    for _ in 0..20_000 {
+        let cam = Camera::quake(
+            Vec3::new(rng.range(-50.0, 50.0), rng.range(-50.0, 50.0), rng.range(-50.0, 50.0)),
+            rng.range(0.0, 360.0),
+            rng.range(-80.0, 80.0),
+        );
+        let fr = cam.view().frustum;
+        let c = point_in(&mut rng, Vec3A::splat(-300.0), Vec3A::splat(300.0));
+        let e = point_in(&mut rng, Vec3A::ZERO, Vec3A::splat(80.0));
+        let mask = rng.below(64) as u8;
+        let mut want = BoxSide::Inside(mask);
+        let mut rest = mask;
+        for (i, (n, d)) in fr.planes().into_iter().enumerate() {
+            if mask & (1 << i) == 0 {
+                continue;
+            }
+            let dist = n.dot(c) - d;
+            let radius = n.abs().dot(e);
+            if dist + radius < 0.0 {
+                want = BoxSide::Outside;
+                break;
+            }
+            if dist - radius >= 0.0 {
+                rest &= !(1 << i);
+            }
+            want = BoxSide::Inside(rest);
+        }
+        assert_eq!(fr.test_box(c, e, mask), want, "box {c:?} ± {e:?}, mask {mask:#x}");
+    }
+}
+
+#[test]
+fn a_world_with_gvs_cells_offers_the_gvs_backend() {
+    use crate::backend::{self, gvs::Gvs};
+    use sightline_formats::level::GvsCell;
+    let mut level = pillars(8);
+    let plain = World::new(&level).expect("valid");
+    let gvs = backend::by_name("gvs").expect("gvs is in backend::all()");
+    assert!(!gvs.supports(&plain), "no cells, no GVS backend");
+    assert!(plain.gvs().is_none());
+    // Two cells: each sees every third face.
+    let faces = level.faces.len() as u32;
+    level.gvs_faces = (0..faces).step_by(3).chain((1..faces).step_by(3)).collect();
+    let half = faces.div_ceil(3);
+    level.gvs_cells = vec![
+        GvsCell { mins: [0.0; 3], maxs: [256.0, 384.0, 192.0], first_face: 0, num_faces: half },
+        GvsCell {
+            mins: [256.0, 0.0, 0.0],
+            maxs: [512.0, 384.0, 192.0],
+            first_face: half,
+            num_faces: level.gvs_faces.len() as u32 - half,
+        },
+    ];
+    let world = World::new(&level).expect("valid with cells");
+    assert!(gvs.supports(&world));
+    let standalone = Gvs::from_level(&level).expect("cells");
+    let mut scratch = Scratch::new(&world);
+    let (mut a, mut b) = (Visible::default(), Visible::default());
+    let mut seen = 0;
+    for cam in random_cameras(&world, 3, 200) {
+        gvs.cull(&world, &cam.view(), &mut scratch, &mut a);
+        standalone.cull(&world, &cam.view(), &mut scratch, &mut b);
+        assert_eq!(a, b);
+        assert!(a.leaves.is_empty());
+        seen += a.faces.len();
+    }
+    assert!(seen > 0, "the cells' faces are seen");
+    // A damaged GVS lump fails the load.
+    level.gvs_faces[0] = faces + 5;
+    assert!(matches!(World::new(&level), Err(crate::LoadError::Gvs(_))));
 }

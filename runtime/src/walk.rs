@@ -1,86 +1,229 @@
 //! The front-to-back walk over marked leaves with hierarchical frustum culling.
 //!
-//! Backends first mark the leaves they consider visible (and, with [`Scratch::mark_leaf`], every
-//! ancestor: Quake's `R_MarkLeaves`). The walk then descends only into marked nodes, near child
-//! first (the side of the node plane the eye is on; an eye exactly on the plane counts as front),
-//! skips every node and leaf whose box is outside the frustum, and passes a plane mask down so a
-//! child fully inside a plane never tests it again. The order is front to back: along any ray
-//! from the eye, a leaf the ray crosses first is output first.
+//! Backends first choose a mark set ([`crate::layout`]): a mark per leaf they consider visible and
+//! per node with such a leaf below (Quake's `R_MarkLeaves`, but for the PVS precomputed at load
+//! for every cluster). The walk then descends only into marked children, near child first (the
+//! side of the node plane the eye is on; an eye exactly on the plane counts as front), skips every
+//! node and leaf whose box is outside the frustum, and passes a plane mask down so a child fully
+//! inside a plane never tests it again. The order is front to back: along any ray from the eye, a
+//! leaf the ray crosses first is output first.
+//!
+//! Cost per visited node: the node record (pre-order, so descents read forwards), a mark test and a
+//! branch-free eight-lane box test per child (the two tests are independent), and branch-free
+//! pushes of the children that pass.
 
-use crate::camera::{BoxSide, Frustum, View};
-use crate::scratch::{Scratch, Visible};
+use crate::camera::{Frustum, View};
+use crate::layout::{MarkSet, SHARED_FACE, WalkTree};
+use crate::pvs::ClusterTrees;
+use crate::scratch::{FrameStats, Scratch, Visible, WalkState};
 use crate::world::World;
 
-/// True when `child` (node or leaf code) carries the mark `mark`.
-#[inline]
-fn is_marked(scratch: &Scratch, child: i32, mark: u32) -> bool {
-    if child >= 0 {
-        scratch.node_mark.get(child as usize) == Some(&mark)
-    } else {
-        scratch.leaf_mark.get((!child) as usize) == Some(&mark)
+/// Which marks a walk reads; made by a backend ([`crate::backend::pvs::Pvs::mark`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Marks(Source);
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    /// Every open leaf.
+    All,
+    /// The PVS tree of a cluster (only made when the world keeps them).
+    Cluster(u32),
+    /// The marks in the caller's scratch.
+    Scratch,
+}
+
+impl Marks {
+    /// Every open leaf of the world tree.
+    pub const ALL: Marks = Marks(Source::All);
+    /// The marks the last backend call left in the scratch.
+    pub(crate) const SCRATCH: Marks = Marks(Source::Scratch);
+
+    /// The PVS tree of `cluster`.
+    pub(crate) fn cluster(cluster: u32) -> Marks {
+        Marks(Source::Cluster(cluster))
     }
 }
 
-/// Output every marked leaf (the marks of the last [`crate::backend::pvs::Pvs::mark`] or backend
-/// call on this scratch) that survives the frustum, front to back,
-/// with its faces (each face once per frame).
-pub fn walk_marked(world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
-    out.clear();
-    let mark = scratch.mark_gen;
-    let frame = scratch.next_frame_gen();
-    let fr = &view.frustum;
-    let eye = view.eye;
-    let mut visited = 0u32;
-    let mut tests = 0u32;
-    scratch.stack.clear();
-    scratch.stack.push((world.root, Frustum::ALL));
-    if !is_marked(scratch, world.root, mark) {
-        scratch.stack.clear();
+/// Output every leaf of `marks` that survives the frustum, front to back, with its faces (each
+/// face once per frame).
+pub fn walk(world: &World, view: &View, marks: Marks, scratch: &mut Scratch, out: &mut Visible) {
+    scratch.bind(world);
+    let set = match marks.0 {
+        Source::All => MarkSet { marks: &world.all_marks, gen_: 1 },
+        Source::Cluster(c) => match world.cluster_trees.as_ref() {
+            Some(trees) => {
+                walk_branches(world, view, trees, c, &mut scratch.walk, &mut scratch.stats, out);
+                return;
+            }
+            None => MarkSet { marks: &world.all_marks, gen_: 1 },
+        },
+        Source::Scratch => MarkSet { marks: &scratch.marks, gen_: scratch.mark_gen },
+    };
+    walk_row(world, view, set, &mut scratch.walk, &mut scratch.stats, out);
+}
+
+/// Output leaf `l` of the walk tree and its faces not yet output this frame.
+#[inline(always)]
+fn emit_leaf(tree: &WalkTree, l: usize, face_mark: &mut [u32], frame: u32, out: &mut Visible) {
+    let (Some(leaf), Some(after)) = (tree.leaves.get(l), tree.leaves.get(l + 1)) else { return };
+    out.leaves.push(leaf.id & !SHARED_FACE);
+    let entries = tree.faces.get(leaf.face_start as usize..after.face_start as usize).unwrap_or(&[]);
+    if leaf.id & SHARED_FACE == 0 {
+        out.faces.extend_from_slice(entries);
+        return;
     }
-    while let Some((child, mask)) = scratch.stack.pop() {
-        visited += 1;
-        if child >= 0 {
-            let Some(node) = world.nodes.get(child as usize) else { continue };
-            let mut mask = mask;
-            if mask != 0 {
-                tests += 1;
-                match fr.test_box(node.center, node.extent, mask) {
-                    BoxSide::Outside => continue,
-                    BoxSide::Inside(m) => mask = m,
-                }
-            }
-            // Near child first: push it last. Unmarked children are never pushed.
-            let back_first = node.normal.dot(eye) - node.dist < 0.0;
-            let [front, back] = node.children;
-            let (near, far) = if back_first { (back, front) } else { (front, back) };
-            if is_marked(scratch, far, mark) {
-                scratch.stack.push((far, mask));
-            }
-            if is_marked(scratch, near, mark) {
-                scratch.stack.push((near, mask));
-            }
-        } else {
-            let l = (!child) as usize;
-            let Some(leaf) = world.leaves.get(l) else { continue };
-            if mask != 0 {
-                tests += 1;
-                if fr.test_box(leaf.center, leaf.extent, mask) == BoxSide::Outside {
-                    continue;
-                }
-            }
-            out.leaves.push(l as u32);
-            let start = leaf.first_face as usize;
-            let faces = world.leaf_faces.get(start..start + leaf.num_faces as usize).unwrap_or(&[]);
-            for &f in faces {
-                if let Some(m) = scratch.face_mark.get_mut(f as usize)
-                    && *m != frame
-                {
-                    *m = frame;
-                    out.faces.push(f);
-                }
-            }
+    for &e in entries {
+        if e & SHARED_FACE == 0 {
+            out.faces.push(e);
+        } else if let Some(m) = face_mark.get_mut((e & !SHARED_FACE) as usize)
+            && *m != frame
+        {
+            *m = frame;
+            out.faces.push(e & !SHARED_FACE);
         }
     }
-    scratch.stats.nodes_visited = visited;
-    scratch.stats.box_tests = tests;
+}
+
+/// The walk over a cluster's pruned PVS tree ([`ClusterTrees`]): the output of [`walk_row`] on
+/// that cluster's marks, visiting only branch nodes and leaves. A child is tested with its own box
+/// (the box of the branch node or leaf it is); the boxes of the skipped single-child chains above
+/// it contain it and are not tested, so only a box within float rounding of a frustum plane could
+/// be decided differently (tests compare both walks with the reference on real maps).
+fn walk_branches(
+    world: &World,
+    view: &View,
+    trees: &ClusterTrees,
+    cluster: u32,
+    st: &mut WalkState,
+    stats: &mut FrameStats,
+    out: &mut Visible,
+) {
+    let root = trees.root(cluster).and_then(|r| r.0);
+    let nodes = trees.cluster_nodes(cluster);
+    out.clear();
+    let frame = st.next_frame_gen();
+    let tree = &world.tree;
+    let fr: &Frustum = &view.frustum;
+    let eye = view.eye.to_array();
+    let (mut visited, mut tests) = (0u32, 0u32);
+    let stack = st.stack.as_mut_slice();
+    let mut top = 0usize;
+    let boxes = |e: u32| tree.elem_box.get(e as usize).copied().unwrap_or([[0.0; 3], [-1.0; 3]]);
+    let mut next = None;
+    // Touch the cluster's nodes once, with independent loads, so that the dependent loads of the
+    // descent hit the cache: every frame in a new cluster starts cold.
+    let mut touch = 0u32;
+    for b in nodes.iter().step_by(3) {
+        touch ^= b.node;
+    }
+    std::hint::black_box(touch);
+    if let Some((code, elem)) = root {
+        tests += 1;
+        let [c, e] = boxes(elem);
+        let (inside, mask) = fr.classify(c, e, Frustum::ALL);
+        next = inside.then_some((code, mask));
+    }
+    while let Some((child, mask)) = next {
+        visited += 1;
+        if child >= 0 {
+            if let Some(b) = trees.nodes.get(child as usize) {
+                let [nx, ny, nz, d] = tree.planes.get(b.node as usize).copied().unwrap_or_default();
+                // Same arithmetic as `Vec3A::dot`: (x + y) + z.
+                let side = nx * eye[0] + ny * eye[1] + nz * eye[2] - d;
+                let near = usize::from(side < 0.0);
+                let far = near ^ 1;
+                let [fc, fe] = boxes(b.child_elem[far]);
+                let [nc, ne] = boxes(b.child_elem[near]);
+                let (far_in, far_mask) = fr.classify(fc, fe, mask);
+                let (near_in, near_mask) = fr.classify(nc, ne, mask);
+                tests += 2 * u32::from(mask != 0);
+                if let Some(slot) = stack.get_mut(top) {
+                    *slot = (b.child[far], far_mask);
+                    top += usize::from(far_in);
+                }
+                if let Some(slot) = stack.get_mut(top) {
+                    *slot = (b.child[near], near_mask);
+                    top += usize::from(near_in);
+                }
+            }
+        } else {
+            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
+        }
+        next = match top.checked_sub(1) {
+            Some(t) => {
+                top = t;
+                stack.get(t).copied()
+            }
+            None => None,
+        };
+    }
+    stats.nodes_visited = visited;
+    stats.box_tests = tests;
+}
+
+/// The walk over one mark set (see the module docs). Children are tested at their parent, so
+/// the stack only holds children that are marked and not outside the frustum, each with its own
+/// plane mask. The stack is a slice of `depth + 3` slots (a pending far child per level, the
+/// current slot, one spare), written unconditionally and advanced by the push condition, so
+/// pushes do not branch.
+fn walk_row(
+    world: &World,
+    view: &View,
+    set: MarkSet,
+    st: &mut WalkState,
+    stats: &mut FrameStats,
+    out: &mut Visible,
+) {
+    out.clear();
+    let frame = st.next_frame_gen();
+    let tree = &world.tree;
+    let fr: &Frustum = &view.frustum;
+    let eye = view.eye.to_array();
+    let mut visited = 0u32;
+    let mut tests = 0u32;
+    let stack = st.stack.as_mut_slice();
+    let mut top = 0usize;
+    let mut next = None;
+    if set.contains(tree.root_bit) {
+        tests += 1;
+        let (inside, mask) = fr.classify(tree.root_box.0, tree.root_box.1, Frustum::ALL);
+        next = inside.then_some((tree.root, mask));
+    }
+    while let Some((child, mask)) = next {
+        visited += 1;
+        if child >= 0 {
+            if let Some(node) = tree.nodes.get(child as usize) {
+                // Same arithmetic as `Vec3A::dot`: (x + y) + z.
+                let n = node.normal;
+                let side = n[0] * eye[0] + n[1] * eye[1] + n[2] * eye[2] - node.dist;
+                let near = usize::from(side < 0.0);
+                let far = near ^ 1;
+                let far_marked = set.contains(node.child_bit[far]);
+                let near_marked = set.contains(node.child_bit[near]);
+                let (far_in, far_mask) = fr.classify(node.center[far], node.extent[far], mask);
+                let (near_in, near_mask) = fr.classify(node.center[near], node.extent[near], mask);
+                tests += u32::from(mask != 0) * (u32::from(far_marked) + u32::from(near_marked));
+                // Far first, so the near child is popped (and drawn) first.
+                if let Some(slot) = stack.get_mut(top) {
+                    *slot = (node.child[far], far_mask);
+                    top += usize::from(far_marked & far_in);
+                }
+                if let Some(slot) = stack.get_mut(top) {
+                    *slot = (node.child[near], near_mask);
+                    top += usize::from(near_marked & near_in);
+                }
+            }
+        } else {
+            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
+        }
+        next = match top.checked_sub(1) {
+            Some(t) => {
+                top = t;
+                stack.get(t).copied()
+            }
+            None => None,
+        };
+    }
+    stats.nodes_visited = visited;
+    stats.box_tests = tests;
 }

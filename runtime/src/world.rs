@@ -16,7 +16,11 @@ use sightline_formats::level::{Contents, Level};
 use sightline_formats::rle;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::backend::gvs::Gvs;
 use crate::error::LoadError;
+use crate::layout::WalkTree;
+use crate::locate::LocateTree;
+use crate::pvs::ClusterTrees;
 
 /// Index of a leaf in [`World`] (the same index as in the source [`Level`]).
 pub type LeafId = u32;
@@ -92,6 +96,10 @@ pub(crate) struct WPortal {
     pub leaves: [u32; 2],
     pub first_vertex: u32,
     pub num_vertices: u32,
+    /// A sphere holding every corner: centre and radius (widened by a relative 1e-5 and 1e-3
+    /// units, so a test against it never contradicts a test of the corners).
+    pub center: Vec3A,
+    pub radius: f32,
 }
 
 /// A validated level laid out for queries. Immutable and `Send + Sync`: share it with `Arc`.
@@ -116,11 +124,20 @@ pub struct World {
     /// CSR: world-tree leaves of cluster `c`.
     pub(crate) cluster_leaf_start: Vec<u32>,
     pub(crate) cluster_leaves: Vec<u32>,
+    /// The walk-tree element of each entry of `cluster_leaves`, for marking without a lookup.
+    pub(crate) cluster_elems: Vec<u32>,
     /// Non-solid leaves of the world tree (what "everything visible" means).
     pub(crate) open_leaves: Vec<u32>,
-    /// Compact copies of the parent links, for marking up the tree without touching whole nodes.
-    pub(crate) leaf_parent: Vec<u32>,
-    pub(crate) node_parent: Vec<u32>,
+    /// The tree for point location ([`crate::locate`]).
+    pub(crate) locate: LocateTree,
+    /// The walk's layout of the tree ([`crate::layout`]).
+    pub(crate) tree: WalkTree,
+    /// Marks (generation 1) of every open leaf (no vis, or the eye in solid).
+    pub(crate) all_marks: Vec<u32>,
+    /// Every cluster's PVS as a pruned tree, when they fit [`crate::pvs::CLUSTER_TREE_BUDGET`].
+    pub(crate) cluster_trees: Option<ClusterTrees>,
+    /// The GVS backend's data, when the level has GVS cells.
+    pub(crate) gvs: Option<Gvs>,
 }
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
@@ -258,11 +275,30 @@ impl World {
         }
         cluster_leaves.truncate(cluster_leaf_start[clusters] as usize);
 
-        let leaf_parent = leaves.iter().map(|l| l.parent).collect();
-        let node_parent = nodes.iter().map(|n| n.parent).collect();
-        Ok(Self {
-            leaf_parent,
-            node_parent,
+        if num_faces > (crate::layout::SHARED_FACE - 1) as usize {
+            return Err(LoadError::Index {
+                what: "face count",
+                owner: "level",
+                index: 0,
+                value: num_faces as u64,
+            });
+        }
+        let tree = WalkTree::build(root_child, &nodes, &leaves, &level.leaf_faces, num_faces);
+        let cluster_elems = cluster_leaves
+            .iter()
+            .map(|&l| tree.leaf_bit.get(l as usize).copied().unwrap_or(crate::layout::NO_ELEMENT))
+            .collect();
+        let mut all_marks = vec![0; tree.mark_slots()];
+        for &l in &open_leaves {
+            tree.mark_leaf(&mut all_marks, 1, l);
+        }
+        let gvs = if level.gvs_cells.is_empty() { None } else { Some(Gvs::from_level(level)?) };
+        let mut world = Self {
+            locate: LocateTree::build(root_child, &nodes),
+            tree,
+            all_marks,
+            cluster_trees: None,
+            gvs,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             root: root_child,
             depth,
@@ -280,8 +316,29 @@ impl World {
             pvs_data: if level.has_vis() { level.pvs_data.clone() } else { Vec::new() },
             cluster_leaf_start,
             cluster_leaves,
+            cluster_elems,
             open_leaves,
-        })
+        };
+        world.cluster_trees = ClusterTrees::build(&world);
+        Ok(world)
+    }
+
+    /// True when every cluster's PVS is kept as a pruned tree (levels whose trees fit
+    /// [`crate::pvs::CLUSTER_TREE_BUDGET`]); otherwise the PVS backend decodes a row and marks
+    /// the tree when the eye changes cluster.
+    pub fn pvs_trees_in_memory(&self) -> bool {
+        self.cluster_trees.is_some()
+    }
+
+    /// Drop the per-cluster PVS trees to save their memory; the PVS backend then decodes a row
+    /// and marks the tree when the eye changes cluster (Quake's scheme). Answers do not change.
+    pub fn drop_pvs_trees(&mut self) {
+        self.cluster_trees = None;
+    }
+
+    /// The GVS cells of the level, when it has any (see [`crate::backend::gvs`]).
+    pub fn gvs(&self) -> Option<&Gvs> {
+        self.gvs.as_ref()
     }
 
     /// Number of leaves.
@@ -365,6 +422,15 @@ impl World {
         let start = p.first_vertex as usize;
         let pts = self.portal_vertices.get(start..start + p.num_vertices as usize)?;
         Some((p.leaves, pts))
+    }
+
+    /// Walk-tree elements of [`World::cluster_leaves`].
+    pub(crate) fn cluster_elements(&self, cluster: u32) -> &[u32] {
+        let c = cluster as usize;
+        match (self.cluster_leaf_start.get(c), self.cluster_leaf_start.get(c + 1)) {
+            (Some(&a), Some(&b)) => self.cluster_elems.get(a as usize..b as usize).unwrap_or(&[]),
+            _ => &[],
+        }
     }
 
     /// Leaves of a cluster that belong to the world tree.
@@ -532,7 +598,11 @@ fn build_portals(level: &Level, num_leaves: usize) -> Result<PortalTables, LoadE
         }
         let n = vec(plane.normal);
         let len = n.length();
+        let center = pts.iter().map(|&v| vec(v)).sum::<Vec3A>() / pts.len() as f32;
+        let radius = pts.iter().map(|&v| vec(v).distance(center)).fold(0.0, f32::max);
         portals.push(WPortal {
+            center,
+            radius: radius * (1.0 + 1e-5) + 1e-3 + center.abs().max_element() * 1e-6,
             normal: n / len,
             dist: plane.dist / len,
             leaves: p.leaves,

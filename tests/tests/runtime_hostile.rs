@@ -9,13 +9,24 @@ use sightline_runtime::{Camera, Scratch, Visible, load, synth};
 
 #[test]
 fn damaged_slvl_files_fail_or_answer() {
-    let level = synth::grid_level([5, 4, 3], 64.0, true, |x, y, z| (x + y + z) % 4 == 0);
+    let mut level = synth::grid_level([5, 4, 3], 64.0, true, |x, y, z| (x + y + z) % 4 == 0);
+    // GVS cells too, so damaged GVS lumps reach the loader and the GVS backend.
+    let faces = level.faces.len() as u32;
+    level.gvs_faces = (0..faces).step_by(2).collect();
+    level.gvs_cells = vec![sightline_formats::level::GvsCell {
+        mins: [0.0; 3],
+        maxs: [320.0, 256.0, 192.0],
+        first_face: 0,
+        num_faces: level.gvs_faces.len() as u32,
+    }];
     slvl::validate(&level).expect("valid level");
     let bases = [
         slvl::write(&level, &slvl::WriteOptions { compress: false }),
         slvl::write(&level, &slvl::WriteOptions { compress: true }),
     ];
     assert!(load::load_slvl(&bases[0]).is_ok() && load::load_slvl(&bases[1]).is_ok());
+    let gvs = sightline_runtime::backend::by_name("gvs").expect("gvs backend");
+    assert!(gvs.supports(&load::load_slvl(&bases[0]).expect("loads")));
     let mut rng = SplitMix64::new(2024);
     let (mut rejected, mut loaded) = (0, 0);
     for i in 0..6000 {
@@ -49,6 +60,9 @@ fn damaged_slvl_files_fail_or_answer() {
                 let cam = Camera::quake(Vec3::from(p), rng.range(0.0, 360.0), 0.0);
                 Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
                 Portal.cull(&world, &cam.view(), &mut scratch, &mut out);
+                if gvs.supports(&world) {
+                    gvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+                }
             }
         }
     }

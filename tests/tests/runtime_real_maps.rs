@@ -4,7 +4,7 @@
 
 use glam::Vec3A;
 use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
-use sightline_runtime::check::{LeafRegions, order_violations, sampled_leaves};
+use sightline_runtime::check::{LeafRegions, order_violations, pvs_leaves, reference_walk, sampled_leaves};
 use sightline_runtime::poses::{SplitMix64, point_in, random_cameras, random_open_point};
 use sightline_runtime::{Scratch, Visible, World, load};
 
@@ -138,5 +138,32 @@ fn walk_is_front_to_back_on_real_maps() {
                 backend.name()
             );
         }
+    }
+}
+
+#[test]
+fn pvs_walk_equals_the_reference_walk_on_real_maps() {
+    for (name, mut world) in worlds() {
+        assert!(world.pvs_trees_in_memory(), "{name}: PVS trees fit the budget");
+        let mut scratch = Scratch::new(&world);
+        let mut fast = Visible::for_world(&world);
+        let cams = random_cameras(&world, 31, 1500);
+        let mut wants = Vec::new();
+        for cam in &cams {
+            let view = cam.view();
+            let marked = pvs_leaves(&world, view.eye);
+            let want = reference_walk(&world, &view, &|l| marked[l as usize]);
+            Pvs.cull(&world, &view, &mut scratch, &mut fast);
+            assert_eq!(fast, want, "{name}: PVS trees vs reference for {cam:?}");
+            wants.push(want);
+        }
+        // The same with rows decoded and marked per cluster change.
+        world.drop_pvs_trees();
+        let mut scratch = Scratch::new(&world);
+        for (cam, want) in cams.iter().zip(&wants) {
+            Pvs.cull(&world, &cam.view(), &mut scratch, &mut fast);
+            assert_eq!(&fast, want, "{name}: decoded marks vs reference for {cam:?}");
+        }
+        assert!(wants.iter().map(|w| w.faces.len()).sum::<usize>() > 1000 * cams.len() / 100);
     }
 }

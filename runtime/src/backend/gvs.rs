@@ -2,8 +2,9 @@
 //! (`Level::gvs_cells` / `gvs_faces`, written by `sightline gvs`), frustum-culled per face box and
 //! sorted front to back by the distance from the eye to the face box.
 //!
-//! The cells and face boxes are not part of [`World`], so this backend is a value built from the
-//! [`Level`] ([`Gvs::from_level`]) rather than a unit struct in [`super::all`].
+//! [`World::new`] builds a [`Gvs`] from the level's cells ([`Gvs::from_level`], every index
+//! checked) and keeps it ([`World::gvs`]); the unit backend [`WorldGvs`] in [`super::all`] answers
+//! with it. A [`Gvs`] built by hand is a backend too.
 //!
 //! # Conventions
 //! - The eye's cell is the first cell whose box contains it (boxes are closed); outside every cell,
@@ -19,7 +20,7 @@ use thiserror::Error;
 
 use crate::backend::Backend;
 use crate::camera::{BoxSide, Frustum, View};
-use crate::scratch::{Scratch, Visible};
+use crate::scratch::{FrameStats, Scratch, Visible};
 use crate::world::{Bounds, World};
 
 /// Why a level's GVS data cannot be used.
@@ -61,6 +62,8 @@ struct Cell {
 pub struct Gvs {
     cells: Vec<Cell>,
     faces: Vec<u32>,
+    /// Finds the cells whose box may contain a point.
+    grid: CellGrid,
     /// Box of every face of the level (indexed by face).
     face_bounds: Vec<Bounds>,
 }
@@ -120,7 +123,8 @@ impl Gvs {
                 });
             }
         }
-        Ok(Gvs { cells, faces: level.gvs_faces.clone(), face_bounds })
+        let grid = CellGrid::build(&cells);
+        Ok(Gvs { cells, faces: level.gvs_faces.clone(), face_bounds, grid })
     }
 
     /// Number of view cells.
@@ -128,11 +132,23 @@ impl Gvs {
         self.cells.len()
     }
 
-    /// Index of the cell answering for `eye` (see the module docs), `None` without cells.
+    /// Index of the cell answering for `eye` (see the module docs), `None` without cells. The
+    /// grid gives the few cells that can contain the eye, in index order; only an eye outside
+    /// every cell scans all cells for the nearest.
     pub fn cell_at(&self, eye: Vec3A) -> Option<usize> {
+        for &i in self.grid.candidates(eye) {
+            if self.cells.get(i as usize).is_some_and(|c| distance_sq(c, eye) == 0.0) {
+                return Some(i as usize);
+            }
+        }
+        self.nearest_cell(eye)
+    }
+
+    /// The first cell at the least distance from `eye` (distance 0: containing it).
+    fn nearest_cell(&self, eye: Vec3A) -> Option<usize> {
         let mut best: Option<(f32, usize)> = None;
         for (i, c) in self.cells.iter().enumerate() {
-            let d = (c.mins - eye).max(eye - c.maxs).max(Vec3A::ZERO).length_squared();
+            let d = distance_sq(c, eye);
             if d == 0.0 {
                 return Some(i);
             }
@@ -174,6 +190,108 @@ impl Gvs {
     }
 }
 
+/// Squared distance from `p` to a cell's box (0 inside).
+#[inline]
+fn distance_sq(c: &Cell, p: Vec3A) -> f32 {
+    (c.mins - p).max(p - c.maxs).max(Vec3A::ZERO).length_squared()
+}
+
+/// A uniform grid over the cells' boxes (at most [`CellGrid::MAX_PER_AXIS`] per axis): each grid
+/// cell lists, in ascending order, every view cell whose box, widened by [`CellGrid::MARGIN`],
+/// overlaps it. A view cell at distance 0 from a point (see [`distance_sq`]) is then in the list
+/// of the point's grid cell, so the first such cell of that list is the first of all cells.
+#[derive(Debug, Clone, Default)]
+struct CellGrid {
+    lo: Vec3A,
+    hi: Vec3A,
+    scale: Vec3A,
+    dims: [usize; 3],
+    /// CSR: view cells of grid cell `g` are `list[start[g]..start[g + 1]]`.
+    start: Vec<u32>,
+    list: Vec<u32>,
+}
+
+impl CellGrid {
+    const MAX_PER_AXIS: usize = 64;
+    /// Widening of the boxes (relative to the grid's size, plus one unit): far more than the
+    /// distance at which a squared distance rounds to zero.
+    const MARGIN: f32 = 1e-3;
+    /// Most list entries; a grid that would be larger is not built (every query scans).
+    const MAX_ENTRIES: usize = 1 << 22;
+
+    fn build(cells: &[Cell]) -> Self {
+        let Some(first) = cells.first() else { return Self::default() };
+        let (mut lo, mut hi) = (first.mins, first.maxs);
+        for c in cells {
+            lo = lo.min(c.mins);
+            hi = hi.max(c.maxs);
+        }
+        let margin = Vec3A::splat(
+            Self::MARGIN * (1.0 + (hi - lo).max_element() + lo.abs().max(hi.abs()).max_element()),
+        );
+        let (lo, hi) = (lo - margin, hi + margin);
+        let per_axis = (cells.len() as f64).cbrt().ceil().clamp(1.0, Self::MAX_PER_AXIS as f64) as usize;
+        let dims = [per_axis; 3];
+        let scale = Vec3A::splat(per_axis as f32) / (hi - lo).max(Vec3A::splat(f32::MIN_POSITIVE));
+        let mut grid = CellGrid { lo, hi, scale, dims, start: Vec::new(), list: Vec::new() };
+        let ranges: Vec<([usize; 3], [usize; 3])> =
+            cells.iter().map(|c| (grid.index(c.mins - margin), grid.index(c.maxs + margin))).collect();
+        let total: usize =
+            ranges.iter().map(|(a, b)| (0..3).map(|k| b[k] + 1 - a[k]).product::<usize>()).sum();
+        if total > Self::MAX_ENTRIES {
+            return Self::default();
+        }
+        let count = per_axis * per_axis * per_axis;
+        let mut counts = vec![0u32; count + 1];
+        let flat = |x: usize, y: usize, z: usize| (z * per_axis + y) * per_axis + x;
+        for (a, b) in &ranges {
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        counts[flat(x, y, z) + 1] += 1;
+                    }
+                }
+            }
+        }
+        for g in 0..count {
+            counts[g + 1] += counts[g];
+        }
+        grid.start = counts.clone();
+        grid.list = vec![0; total];
+        for (i, (a, b)) in ranges.iter().enumerate() {
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        let slot = &mut counts[flat(x, y, z)];
+                        grid.list[*slot as usize] = i as u32;
+                        *slot += 1;
+                    }
+                }
+            }
+        }
+        grid
+    }
+
+    /// Grid coordinates of `p`, clamped into the grid.
+    fn index(&self, p: Vec3A) -> [usize; 3] {
+        let g = ((p - self.lo) * self.scale).to_array();
+        std::array::from_fn(|k| (g[k].max(0.0) as usize).min(self.dims[k].saturating_sub(1)))
+    }
+
+    /// The view cells that may be at distance 0 from `p`, ascending (none outside the grid).
+    fn candidates(&self, p: Vec3A) -> &[u32] {
+        if self.dims[0] == 0 || !(p.cmpge(self.lo).all() && p.cmple(self.hi).all()) {
+            return &[];
+        }
+        let [x, y, z] = self.index(p);
+        let g = (z * self.dims[1] + y) * self.dims[0] + x;
+        match (self.start.get(g), self.start.get(g + 1)) {
+            (Some(&a), Some(&b)) => self.list.get(a as usize..b as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
+}
+
 impl Backend for Gvs {
     fn name(&self) -> &'static str {
         "gvs"
@@ -186,9 +304,33 @@ impl Backend for Gvs {
     fn cull(&self, _world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
         out.leaves.clear();
         self.query(view.eye, &view.frustum, &mut out.faces);
-        scratch.stats.marked_leaves = 0;
-        scratch.stats.portals_crossed = 0;
-        scratch.stats.truncated = false;
+        scratch.stats = FrameStats::default();
+    }
+}
+
+/// The GVS backend over the cells a [`World`] carries ([`World::gvs`]); this is the value in
+/// [`super::all`]. It supports a world loaded from a level with GVS cells; on any other world it
+/// outputs nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct WorldGvs;
+
+impl Backend for WorldGvs {
+    fn name(&self) -> &'static str {
+        "gvs"
+    }
+
+    fn supports(&self, world: &World) -> bool {
+        world.gvs().is_some_and(|g| g.supports(world))
+    }
+
+    fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
+        match world.gvs() {
+            Some(g) => g.cull(world, view, scratch, out),
+            None => {
+                out.clear();
+                scratch.stats = FrameStats::default();
+            }
+        }
     }
 }
 
@@ -233,6 +375,42 @@ mod tests {
         // Far away: the nearest cell (the second) answers.
         assert_eq!(gvs.cell_at(Vec3A::splat(500.0)), Some(1));
         assert_eq!(gvs.cell_faces(1), &[0]);
+    }
+
+    #[test]
+    fn grid_finds_the_same_cell_as_a_scan() {
+        use crate::poses::{SplitMix64, point_in};
+        let mut rng = SplitMix64::new(3);
+        let mut l = level();
+        l.gvs_cells.clear();
+        for _ in 0..300 {
+            let lo = point_in(&mut rng, Vec3A::splat(-500.0), Vec3A::splat(500.0));
+            let hi = lo + point_in(&mut rng, Vec3A::ZERO, Vec3A::splat(120.0));
+            l.gvs_cells.push(GvsCell {
+                mins: lo.to_array(),
+                maxs: hi.to_array(),
+                first_face: 0,
+                num_faces: 1,
+            });
+        }
+        let gvs = Gvs::from_level(&l).expect("valid");
+        assert!(!gvs.grid.list.is_empty());
+        let mut inside = 0;
+        for i in 0..20_000 {
+            let c = &gvs.cells[rng.below(gvs.cells.len())];
+            let mut p = match i % 3 {
+                0 => point_in(&mut rng, Vec3A::splat(-700.0), Vec3A::splat(700.0)),
+                _ => point_in(&mut rng, c.mins, c.maxs),
+            };
+            if i % 4 == 0 {
+                // Exactly on a box face.
+                p.x = c.maxs.x;
+            }
+            let want = gvs.nearest_cell(p);
+            assert_eq!(gvs.cell_at(p), want, "point {p:?}");
+            inside += usize::from(want.is_some_and(|c| distance_sq(&gvs.cells[c], p) == 0.0));
+        }
+        assert!(inside > 10_000, "{inside} points inside a cell");
     }
 
     #[test]

@@ -2,12 +2,13 @@
 //!
 //! Every backend takes a [`World`], a [`View`] and the caller's [`Scratch`], and fills a
 //! [`Visible`] with leaves and faces, front to back. Backends:
-//! - [`pvs::Pvs`] (the default): the eye cluster's precomputed PVS row, then the frustum walk.
+//! - [`pvs::Pvs`] (the default): the eye cluster's PVS (a pruned tree built at load), then the
+//!   frustum walk.
 //! - [`portal::Portal`]: nothing precomputed; recursion through the level's portals, narrowing the
 //!   frustum at each portal polygon, then the same frustum walk over the leaves it reached.
-//! - [`gvs::Gvs`] (owned by the GVS work): the faces of the eye's GVS view cell. It is built from a
-//!   level's GVS cells (`Gvs::from_level`), so it is not in [`all`]; tools add it when a level has
-//!   cells.
+//! - [`gvs::WorldGvs`]: the faces of the eye's GVS view cell, from the cells the world was loaded
+//!   with ([`World::gvs`]); it supports only worlds whose level has GVS cells, and outputs faces
+//!   but no leaves.
 
 pub mod gvs;
 pub mod portal;
@@ -30,9 +31,9 @@ pub trait Backend: Send + Sync + std::fmt::Debug {
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible);
 }
 
-/// Every backend, default first.
+/// Every backend, default first (check [`Backend::supports`] for a given world).
 pub fn all() -> &'static [&'static dyn Backend] {
-    &[&pvs::Pvs, &portal::Portal]
+    &[&pvs::Pvs, &portal::Portal, &gvs::WorldGvs]
 }
 
 /// The backend called `name`.

@@ -5,15 +5,18 @@
 //! field of view at 4:3. Every pose is a new eye position, so the PVS backend decodes and marks a
 //! row nearly every frame (its worst case; a real camera stays in one cluster for many frames).
 //! Each backend runs all poses once to warm up, then once timed, one `Instant` pair per frame.
+//! A second, *coherent* measurement turns the camera in place: after each of the first
+//! `frames / 8` poses, seven more frames at the same eye, 5° further in yaw each (only those seven
+//! are timed), as a real camera that stays in one spot for a while.
+//! The GVS backend is measured when the level carries GVS cells (`sightline gvs ... -o`).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 use serde_json::json;
-use sightline_formats::slvl;
-use sightline_runtime::backend::{self, Backend, gvs::Gvs, pvs::Pvs};
-use sightline_runtime::walk::walk_marked;
+use sightline_runtime::backend::{self, Backend, pvs::Pvs};
+use sightline_runtime::walk;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
 use crate::cli::Outcome;
@@ -36,6 +39,10 @@ pub struct Args {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Drop the per-cluster PVS trees after loading, so the PVS backend decodes and marks a row
+    /// per cluster change (what levels over the memory budget do).
+    #[arg(long)]
+    pub no_pvs_trees: bool,
 }
 
 /// Timings and counts of one backend.
@@ -58,7 +65,8 @@ struct Report {
     box_tests_avg: f64,
     /// Median over frames of (frame time / that frame's PVS leaves).
     ns_per_pvs_leaf: f64,
-    /// PVS backend only: median time of locating the eye, decoding the row and marking up the tree.
+    /// PVS backend only: median time of locating the eye and choosing its PVS (a lookup when the
+    /// world keeps its per-cluster PVS trees, else decoding the row and marking up the tree).
     mark_ns_median: Option<u64>,
     /// PVS backend only: median time of the frustum walk alone.
     walk_ns_median: Option<u64>,
@@ -67,29 +75,40 @@ struct Report {
     walk_ns_per_pvs_leaf: Option<f64>,
     /// Frames where the portal search hit its budget.
     truncated_frames: usize,
+    /// Portal backend: portals crossed per frame, mean and 99th percentile (deterministic).
+    portals_crossed_avg: f64,
+    portals_crossed_p99: u32,
+    /// Median ns per frame of the coherent camera (turning in place; see the module docs).
+    coherent_ns_median: u64,
 }
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
-    let (world, gvs) = load_world(&args.input)?;
+    let mut world =
+        load::load_path(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    if args.no_pvs_trees {
+        world.drop_pvs_trees();
+    }
     let cams = poses::random_cameras(&world, args.seed, args.frames);
     anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
-    let mut available: Vec<&dyn Backend> = backend::all().to_vec();
-    if let Some(g) = &gvs {
-        available.push(g);
-    }
+    let unsupported: Vec<(&str, &str)> = backend::all()
+        .iter()
+        .filter(|b| !b.supports(&world))
+        .map(|b| (b.name(), why_not(b.name())))
+        .collect();
     let chosen: Vec<&dyn Backend> = if args.backends.is_empty() {
-        available.into_iter().filter(|b| b.supports(&world)).collect()
+        backend::all().iter().copied().filter(|b| b.supports(&world)).collect()
     } else {
         args.backends
             .iter()
             .map(|name| {
-                let b =
-                    available.iter().copied().find(|b| b.name() == name).with_context(|| {
-                        format!("unknown backend `{name}` (or no GVS cells in this level)")
-                    })?;
-                anyhow::ensure!(b.supports(&world), "backend `{name}` cannot run on this level");
+                let b = backend::by_name(name).with_context(|| format!("unknown backend `{name}`"))?;
+                anyhow::ensure!(
+                    b.supports(&world),
+                    "backend `{name}` cannot run on this level: {}",
+                    why_not(name)
+                );
                 Ok(b)
             })
             .collect::<anyhow::Result<_>>()?
@@ -104,26 +123,31 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             "open_leaves": world.open_leaves().len(),
             "clusters": world.num_clusters(),
             "portals": world.num_portals(),
+            "pvs_trees_in_memory": world.pvs_trees_in_memory(),
+            "gvs_cells": world.gvs().map_or(0, |g| g.num_cells()),
+            "not_run": unsupported.iter().map(|(b, why)| json!({ "backend": b, "reason": why })).collect::<Vec<_>>(),
             "camera": { "fov_y": cams[0].fov_y, "aspect": cams[0].aspect, "pitch_range": 60 },
             "backends": reports,
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_table(&args.input, &world, cams.len(), args.seed, &reports);
+        if args.backends.is_empty() {
+            for (name, why) in &unsupported {
+                println!("{name:<8} not run: {why}");
+            }
+        }
     }
     Ok(Outcome::Clean)
 }
 
-/// The world, and the GVS backend when the file is a `.slvl` holding GVS cells.
-fn load_world(path: &std::path::Path) -> anyhow::Result<(World, Option<Gvs>)> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    if !bytes.starts_with(&slvl::MAGIC) {
-        return Ok((load::load_path(path).with_context(|| format!("loading {}", path.display()))?, None));
+/// Why a backend does not support a level.
+fn why_not(name: &str) -> &'static str {
+    match name {
+        "portal" => "the level has no portals",
+        "gvs" => "the level has no GVS cells (write them with `sightline gvs LEVEL.slvl -o OUT.slvl`)",
+        _ => "not supported by this level",
     }
-    let level = slvl::read(&bytes).with_context(|| format!("reading {}", path.display()))?;
-    let world = World::new(&level).with_context(|| format!("loading {}", path.display()))?;
-    let gvs = if level.gvs_cells.is_empty() { None } else { Some(Gvs::from_level(&level)?) };
-    Ok((world, gvs))
 }
 
 fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
@@ -137,6 +161,7 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     let mut per_leaf = Vec::with_capacity(views.len());
     let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
     let (mut visited, mut tests) = (0u64, 0u64);
+    let mut crossed = Vec::with_capacity(views.len());
     for view in &views {
         let start = Instant::now();
         backend.cull(world, view, &mut scratch, &mut out);
@@ -149,7 +174,12 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         truncated += usize::from(scratch.stats.truncated);
         visited += u64::from(scratch.stats.nodes_visited);
         tests += u64::from(scratch.stats.box_tests);
+        crossed.push(scratch.stats.portals_crossed);
     }
+    let portals_crossed_avg = crossed.iter().map(|&c| f64::from(c)).sum::<f64>() / views.len().max(1) as f64;
+    crossed.sort_unstable();
+    let portals_crossed_p99 =
+        crossed.get(((crossed.len().saturating_sub(1)) as f64 * 0.99).round() as usize).copied().unwrap_or(0);
     let n = views.len() as f64;
     let mean = times.iter().sum::<u64>() as f64 / n;
     times.sort_unstable();
@@ -157,6 +187,7 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     let pvs_avg = marked as f64 / n;
     let (mark_ns, walk_ns, walk_per_leaf) =
         if backend.name() == "pvs" { phases(world, &views) } else { (None, None, None) };
+    let coherent_ns_median = coherent(world, backend, cams);
     Report {
         backend: backend.name(),
         frames: views.len(),
@@ -174,7 +205,27 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
         walk_ns_median: walk_ns,
         walk_ns_per_pvs_leaf: walk_per_leaf,
         truncated_frames: truncated,
+        coherent_ns_median,
+        portals_crossed_avg,
+        portals_crossed_p99,
     }
+}
+
+/// Median ns per frame of a camera turning in place (see the module docs).
+fn coherent(world: &World, backend: &dyn Backend, cams: &[Camera]) -> u64 {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let mut times = Vec::new();
+    for cam in cams.iter().take(cams.len().div_ceil(8)) {
+        backend.cull(world, &cam.view(), &mut scratch, &mut out);
+        for k in 1..8 {
+            let view = Camera { yaw: cam.yaw + 5.0 * k as f32, ..*cam }.view();
+            let start = Instant::now();
+            backend.cull(world, &view, &mut scratch, &mut out);
+            times.push(start.elapsed().as_nanos() as f64);
+        }
+    }
+    median(&mut times) as u64
 }
 
 /// Median of a sample (0 for none).
@@ -192,9 +243,10 @@ fn phases(world: &World, views: &[sightline_runtime::View]) -> (Option<u64>, Opt
     for view in views {
         let t0 = Instant::now();
         let leaf = world.leaf_at(view.eye);
-        let marked = Pvs::mark(world, leaf, &mut scratch);
+        let marks = Pvs::mark(world, leaf, &mut scratch);
+        let marked = scratch.stats.marked_leaves;
         let t1 = Instant::now();
-        walk_marked(world, view, &mut scratch, &mut out);
+        walk::walk(world, view, marks, &mut scratch, &mut out);
         let t2 = Instant::now();
         mark.push((t1 - t0).as_nanos() as f64);
         walk.push((t2 - t1).as_nanos() as f64);
@@ -226,8 +278,11 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
     );
     for r in reports {
         let walk = r.walk_ns_per_pvs_leaf.map_or_else(|| "-".to_string(), |w| format!("{w:.1}"));
+        // GVS cells are not leaves: no PVS leaves to divide by.
+        let per_leaf =
+            if r.pvs_leaves_avg > 0.0 { format!("{:.1}", r.ns_per_pvs_leaf) } else { "-".to_string() };
         println!(
-            "{:<8} {:>9} {:>9} {:>9} {:>10.1} {:>11.1} {:>10.1} {:>10.1} {:>10}",
+            "{:<8} {:>9} {:>9} {:>9} {:>10.1} {:>11.1} {:>10.1} {:>10} {:>10}",
             r.backend,
             r.ns_per_frame_min,
             r.ns_per_frame_median,
@@ -235,16 +290,28 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
             r.pvs_leaves_avg,
             r.visible_leaves_avg,
             r.visible_faces_avg,
-            r.ns_per_pvs_leaf,
+            per_leaf,
             walk
         );
         if let (Some(m), Some(w)) = (r.mark_ns_median, r.walk_ns_median) {
-            println!("         phases (medians): locate + decode + mark {m} ns, walk {w} ns");
+            let how = if world.pvs_trees_in_memory() {
+                "locate + PVS tree lookup"
+            } else {
+                "locate + decode + mark"
+            };
+            println!("         phases (medians): {how} {m} ns, walk {w} ns");
         }
+        println!("         coherent camera (turning in place): median {} ns", r.coherent_ns_median);
         println!(
             "         walk: {:.1} nodes and leaves visited, {:.1} box tests per frame",
             r.nodes_visited_avg, r.box_tests_avg
         );
+        if r.backend == "portal" {
+            println!(
+                "         portals crossed per frame: mean {:.1}, p99 {}",
+                r.portals_crossed_avg, r.portals_crossed_p99
+            );
+        }
         if r.truncated_frames > 0 {
             println!("         {} frames hit the portal search budget", r.truncated_frames);
         }
