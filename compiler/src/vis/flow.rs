@@ -23,6 +23,7 @@
 //! The result of a flow is the set of portals it might see that lead into a cluster it sees: a
 //! superset of the portals truly visible through the source, so later flows may narrow by it.
 
+use glam::DVec3;
 use sightline_formats::geom::Plane;
 
 use super::bits;
@@ -176,7 +177,7 @@ impl Flow {
             }
             if prev.narrow {
                 prev.narrow = false;
-                if !narrow_source(self.level, lo, head, &mut self.tmp) {
+                if !narrow_source(self.level, g.convex, lo, head, &mut self.tmp) {
                     return;
                 }
             }
@@ -208,7 +209,7 @@ impl Flow {
                 if next.pass.clip_in(&target, &prev_plane, CLIP_EPSILON, tmp) == Clip::Gone {
                     continue;
                 }
-                if !clip_target(self.level, prev, next, source_clip, &target, tmp) {
+                if !clip_target(self.level, g.convex, prev, next, source_clip, &target, tmp) {
                     continue;
                 }
                 // Tests 3 and 4 narrow the source for the frame below: deferred until that frame
@@ -237,24 +238,29 @@ impl Flow {
         }
         if self.frames[d].narrow {
             self.frames[d].narrow = false;
-            if !narrow_source(self.level, &mut self.frames[..=d], head, &mut self.tmp) {
+            if !narrow_source(self.level, g.convex, &mut self.frames[..=d], head, &mut self.tmp) {
                 return false;
             }
         }
         let f = &mut self.frames[d];
-        f.ensure_separators(self.level);
+        f.ensure_separators(self.level, g.convex);
         for w in lo..hi {
             let mut unc = f.might[w] & !self.vis[w];
             while unc != 0 {
                 let b = unc.trailing_zeros() as usize;
                 unc &= unc - 1;
-                let t = &g.portals[w * 64 + b];
-                let pass_plane = f.plane.iter();
-                let out = f.seps.iter().flatten().chain(pass_plane).any(|pl| {
-                    let c = pl.distance(t.center);
-                    c + t.radius <= TOUCH_EPSILON
-                        || (c < 0.0 && g.winding(t).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
-                });
+                let ti = w * 64 + b;
+                let [x, y, z, r] = g.spheres[ti];
+                let center = DVec3::new(x, y, z);
+                let beyond = |pl: &Plane| {
+                    let c = pl.distance(center);
+                    c + r <= TOUCH_EPSILON
+                        || (c < 0.0
+                            && g.winding(&g.portals[ti]).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
+                };
+                let out = f.plane.as_ref().is_some_and(beyond)
+                    || f.seps[0].iter().any(beyond)
+                    || f.seps[1].iter().any(beyond);
                 if out {
                     f.might[w] &= !(1u64 << b);
                 }
@@ -266,7 +272,7 @@ impl Flow {
 
 impl Frame {
     /// Compute the separators of (`source`, `pass`) unless cached.
-    fn ensure_separators(&mut self, level: u8) {
+    fn ensure_separators(&mut self, level: u8, convex: bool) {
         if self.seps_ready {
             return;
         }
@@ -277,7 +283,7 @@ impl Frame {
             }
             let (a, b) = if flip { (&self.pass, &self.source) } else { (&self.source, &self.pass) };
             let list = &mut self.seps[k];
-            for_each_separator(a, b, flip, |plane| {
+            for_each_separator(a, b, flip, convex, |plane| {
                 list.push(*plane);
                 true
             });
@@ -290,6 +296,7 @@ impl Frame {
 /// the pass portal, from the frame's cache when the source was not changed for this target.
 fn clip_target(
     level: u8,
+    convex: bool,
     prev: &mut Frame,
     next: &mut Frame,
     source_clip: Clip,
@@ -300,7 +307,7 @@ fn clip_target(
         return true;
     }
     if source_clip == Clip::Whole {
-        prev.ensure_separators(level);
+        prev.ensure_separators(level, convex);
         for list in &prev.seps {
             for plane in list {
                 if next.pass.clip_in(target, plane, CLIP_EPSILON, tmp) == Clip::Gone {
@@ -310,20 +317,20 @@ fn clip_target(
         }
         return true;
     }
-    if !clip_to_separators(&next.source, &prev.pass, false, &mut next.pass, target, tmp) {
+    if !clip_to_separators(&next.source, &prev.pass, false, convex, &mut next.pass, target, tmp) {
         return false;
     }
-    level < 2 || clip_to_separators(&prev.pass, &next.source, true, &mut next.pass, target, tmp)
+    level < 2 || clip_to_separators(&prev.pass, &next.source, true, convex, &mut next.pass, target, tmp)
 }
 
 /// Tests 3 and 4 for the last frame of `frames`: clip its source by the separators of (its pass,
 /// the previous pass) and of (previous pass, its pass). Run lazily, when the frame first has a
 /// target to test; until then the portal that led to it already counts as visible, which can
 /// only keep more. Returns `false` when no source is left.
-fn narrow_source(level: u8, frames: &mut [Frame], head: &Head, tmp: &mut Poly) -> bool {
+fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, tmp: &mut Poly) -> bool {
     let [.., prev, cur] = frames else { return true };
-    if !clip_to_separators(&cur.pass, &prev.pass, false, &mut cur.source, &head.bound, tmp) {
+    if !clip_to_separators(&cur.pass, &prev.pass, false, convex, &mut cur.source, &head.bound, tmp) {
         return false;
     }
-    level < 4 || clip_to_separators(&prev.pass, &cur.pass, true, &mut cur.source, &head.bound, tmp)
+    level < 4 || clip_to_separators(&prev.pass, &cur.pass, true, convex, &mut cur.source, &head.bound, tmp)
 }

@@ -42,8 +42,34 @@ pub struct Graph {
     pub cluster_portals: Vec<Vec<u32>>,
     /// Per cluster, the indices of the one-way portals leading into it.
     pub cluster_incoming: Vec<Vec<u32>>,
+    /// Per portal, its bounding sphere as `[x, y, z, radius]`, packed for scans over many portals.
+    pub spheres: Vec<[f64; 4]>,
     /// Portal lines dropped (no plane, or joining a cluster to itself).
     pub dropped: usize,
+    /// Every winding is planar and convex within [`WELL_FORMED_EPSILON`] (as compilers write
+    /// them); then every winding clipped from them is too, and separator planes through an edge
+    /// need no check that the rest of their winding lies behind them (see [`super::poly`]).
+    pub convex: bool,
+}
+
+/// How far (units) a winding's points may stray from its plane, or beyond the line of one of its
+/// edges, for the winding to count as planar and convex: a tenth of the clip band, so a plane
+/// accepted on that assumption cuts at most that much of what a check would have kept.
+pub const WELL_FORMED_EPSILON: f64 = 1e-3;
+
+/// True when `pts` lie within [`WELL_FORMED_EPSILON`] of `plane` and inside every edge line.
+fn well_formed(pts: &[DVec3], plane: &Plane) -> bool {
+    let n = pts.len();
+    let centre = pts.iter().copied().sum::<DVec3>() / n.max(1) as f64;
+    (0..n).all(|i| {
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
+        let mut inward = plane.normal.cross(b - a).normalize_or_zero();
+        if inward.dot(centre - a) < 0.0 {
+            inward = -inward;
+        }
+        plane.distance(a).abs() <= WELL_FORMED_EPSILON
+            && pts.iter().all(|q| inward.dot(*q - a) >= -WELL_FORMED_EPSILON)
+    })
 }
 
 impl Graph {
@@ -56,7 +82,9 @@ impl Graph {
             points: Vec::new(),
             cluster_portals: vec![Vec::new(); num_clusters],
             cluster_incoming: vec![Vec::new(); num_clusters],
+            spheres: Vec::with_capacity(prt.portals.len() * 2),
             dropped: 0,
+            convex: true,
         };
         for line in &prt.portals {
             let [a, b] = line.leaves;
@@ -68,6 +96,7 @@ impl Graph {
                 continue;
             };
             let pts = &line.winding.points;
+            g.convex &= well_formed(pts, &plane);
             let mut reversed = pts.clone();
             reversed.reverse();
             g.push(plane.flipped(), b, a, pts);
@@ -80,6 +109,7 @@ impl Graph {
         let center = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
         let radius = pts.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
         let index = self.portals.len() as u32;
+        self.spheres.push([center.x, center.y, center.z, radius]);
         self.portals.push(OneWay {
             plane,
             leaf,

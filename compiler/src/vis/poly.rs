@@ -165,12 +165,13 @@ impl Poly {
 /// and `b` a set of directions. The separating plane is the one through the vertex of `b` turned
 /// farthest toward `a`'s outside, so one pass over `b` finds it; the reference tools try every
 /// vertex and test each plane against both windings. (Another separating plane exists only when
-/// `b` crosses `a`'s plane; skipping it keeps more.) The plane is kept only when all of `a` is
-/// behind (none beyond `+SEPARATOR_EPSILON`, some beyond `-SEPARATOR_EPSILON`) and all of `b` in
-/// front (none beyond `-SEPARATOR_EPSILON`, some beyond `+SEPARATOR_EPSILON`). Skipping a plane is
-/// always safe: it only keeps more.
+/// `b` crosses `a`'s plane; skipping it keeps more.) The plane is kept only when all of `b` is in
+/// front (none beyond `-SEPARATOR_EPSILON`, some beyond `+SEPARATOR_EPSILON`) and, unless `a` is
+/// known `convex` (then a plane through its edge leaning away from it has it behind), all of `a`
+/// behind (none beyond `+SEPARATOR_EPSILON`, some beyond `-SEPARATOR_EPSILON`). Skipping a plane
+/// is always safe: it only keeps more.
 #[inline]
-pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Plane) -> bool) {
+pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, convex: bool, mut f: impl FnMut(&Plane) -> bool) {
     let (an, bn) = (a.n, b.n);
     if an < 3 || bn == 0 {
         return;
@@ -221,7 +222,7 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
         }
         let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
         let dist = normal.dot(ai);
-        if !separates(normal, dist, a_pts, b_pts) {
+        if !in_front(normal, dist, b_pts) || (!convex && !behind(normal, dist, a_pts)) {
             continue;
         }
         let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
@@ -231,27 +232,26 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, mut f: impl FnMut(&Pla
     }
 }
 
-/// True when the plane puts all of `a` behind and all of `b` in front, each with some point beyond
-/// [`SEPARATOR_EPSILON`].
+/// True when no point of `b` lies behind the plane beyond [`SEPARATOR_EPSILON`] and some lies in
+/// front beyond it.
 #[inline]
-fn separates(normal: DVec3, dist: f64, a: &[DVec3], b: &[DVec3]) -> bool {
-    let mut b_front = false;
+fn in_front(normal: DVec3, dist: f64, b: &[DVec3]) -> bool {
+    let mut front = false;
     for q in b {
         let d = normal.dot(*q) - dist;
         if d < -SEPARATOR_EPSILON {
             return false;
         }
-        b_front |= d > SEPARATOR_EPSILON;
+        front |= d > SEPARATOR_EPSILON;
     }
-    let mut a_back = false;
-    for q in a {
-        let d = normal.dot(*q) - dist;
-        if d > SEPARATOR_EPSILON {
-            return false;
-        }
-        a_back |= d < -SEPARATOR_EPSILON;
-    }
-    b_front && a_back
+    front
+}
+
+/// True when no point of `a` lies in front of the plane beyond [`SEPARATOR_EPSILON`] and some
+/// lies behind beyond it.
+#[inline]
+fn behind(normal: DVec3, dist: f64, a: &[DVec3]) -> bool {
+    in_front(-normal, -dist, a)
 }
 
 /// Clip `target` by every separating plane of (`a`, `b`) (see [`for_each_separator`]); returns
@@ -261,12 +261,13 @@ pub fn clip_to_separators(
     a: &Poly,
     b: &Poly,
     flip: bool,
+    convex: bool,
     target: &mut Poly,
     bound: &Sphere,
     tmp: &mut Poly,
 ) -> bool {
     let mut alive = true;
-    for_each_separator(a, b, flip, |plane| {
+    for_each_separator(a, b, flip, convex, |plane| {
         alive = target.clip_in(bound, plane, CLIP_EPSILON, tmp) != Clip::Gone;
         alive
     });
@@ -337,21 +338,21 @@ mod tests {
         // after the full beam of separators, and a target off to the side is cut away.
         let (a, b) = (square(0.0, 64.0), square(64.0, 64.0));
         let mut planes = Vec::new();
-        for_each_separator(&a, &b, false, |p| {
+        for_each_separator(&a, &b, false, false, |p| {
             planes.push(*p);
             true
         });
         assert!(!planes.is_empty());
         let mut tmp = Poly::default();
         let mut t = square(128.0, 64.0);
-        assert!(clip_to_separators(&a, &b, false, &mut t, &HUGE, &mut tmp));
+        assert!(clip_to_separators(&a, &b, false, false, &mut t, &HUGE, &mut tmp));
         let mut far = poly(&[
             DVec3::new(128.0, 200.0, 0.0),
             DVec3::new(128.0, 264.0, 0.0),
             DVec3::new(128.0, 264.0, 64.0),
             DVec3::new(128.0, 200.0, 64.0),
         ]);
-        assert!(!clip_to_separators(&a, &b, false, &mut far, &HUGE, &mut tmp));
+        assert!(!clip_to_separators(&a, &b, false, false, &mut far, &HUGE, &mut tmp));
     }
 
     proptest! {
@@ -380,7 +381,7 @@ mod tests {
             let beyond = pa + (pb - pa) * far;
             for flip in [false, true] {
                 let (x, y) = if flip { (&b, &a) } else { (&a, &b) };
-                for_each_separator(x, y, flip, |plane| {
+                for_each_separator(x, y, flip, true, |plane| {
                     // Normal order keeps the far side (with b); flipped keeps the `a` side... of x=b.
                     let d = plane.distance(beyond);
                     assert!(d >= -1e-6, "ray end cut by a separator: {d}");

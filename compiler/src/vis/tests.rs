@@ -141,3 +141,23 @@ fn one_way_windings_turn_counter_clockwise_about_their_normal() {
         }
     }
 }
+
+#[test]
+fn windings_count_as_convex_only_when_they_are() {
+    let prt = corridor(&[0.0, 8.0], &[64.0, 64.0]);
+    assert!(graph::Graph::new(&prt).convex);
+    // A dart: the fourth point is pulled 4 units inside, past the line of two edges.
+    let mut dart = prt.clone();
+    dart.portals[0].winding = Winding::new(vec![
+        DVec3::new(64.0, 0.0, 0.0),
+        DVec3::new(64.0, 32.0, 0.0),
+        DVec3::new(64.0, 32.0, 32.0),
+        DVec3::new(64.0, 16.0, 4.0),
+        DVec3::new(64.0, 0.0, 32.0),
+    ]);
+    assert!(!graph::Graph::new(&dart).convex);
+    // A bent winding: one corner 0.5 units off the plane.
+    let mut bent = prt;
+    bent.portals[1].winding.points[2].x += 0.5;
+    assert!(!graph::Graph::new(&bent).convex);
+}
