@@ -118,6 +118,43 @@ fn cancelled_run_saves_its_state_and_resumes_to_the_same_pvs() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn pvs_is_no_looser_than_the_reference_on_every_shared_map() {
+    // The reference's `.vis.bsp` rows against ours, leaf pair by leaf pair counted.
+    let names = [
+        "dm1",
+        "dm2",
+        "dm3",
+        "start",
+        "e1m1",
+        "e1m2",
+        "e1m3",
+        "lqdm1",
+        "lq_e0m1",
+        "lq_e1m1",
+        "dm2_nodetail",
+        "e1m1_nodetail",
+    ];
+    let mut checked = 0;
+    for name in names {
+        let (Some(prt), Some(reference)) =
+            (portal_file(&format!("{name}.prt")), ericw(&format!("{name}.vis.bsp")))
+        else {
+            continue;
+        };
+        let ours = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
+        let theirs = bsp_pairs(&reference);
+        let mine = ours.stats.visible_pairs;
+        eprintln!(
+            "{name}: visible pairs ours {mine}, reference {theirs}, ratio {:.4}",
+            mine as f64 / theirs as f64
+        );
+        assert!(mine <= theirs, "{name}: ours {mine} > reference {theirs}");
+        checked += 1;
+    }
+    eprintln!("{checked} maps checked");
+}
+
 /// Total visible leaf pairs stored in a BSP.
 fn bsp_pairs(path: &Path) -> u64 {
     let b = bsp::read(&std::fs::read(path).expect("read .bsp")).expect("parse .bsp");
