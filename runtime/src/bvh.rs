@@ -2,7 +2,8 @@
 //!
 //! A binary BVH built top-down with a binned surface-area heuristic (16 bins per axis, leaves of at
 //! most [`MAX_LEAF`] triangles), stored as a flat array of 32-byte nodes (the two children of an
-//! interior node are adjacent), and traversed with a small explicit stack, near child first.
+//! interior node are adjacent), and traversed over 64-byte child pairs (both children's boxes in
+//! SIMD lanes, tested at once) with a small explicit stack, near child first.
 //!
 //! # Conventions
 //! - Rays are `origin + t * dir` with `dir` not necessarily normalised; `t` is in units of `dir`.
@@ -17,7 +18,7 @@
 //! - Results are deterministic: among hits at exactly equal `t` the one found first in the fixed
 //!   traversal order wins.
 
-use glam::{Vec3, Vec3A, Vec4};
+use glam::{Vec3, Vec3A, Vec4, Vec4Swizzles};
 
 /// Most triangles in one leaf.
 pub const MAX_LEAF: usize = 4;
@@ -75,6 +76,28 @@ impl Node {
     }
 }
 
+/// What traversal needs of the two children of an interior node, in one 64-byte cache line: their
+/// boxes, one axis per vector with lanes `[left min, right min, left max, right max]` (one SIMD
+/// slab test covers both children), and each child's `first` and `count` (as in [`BuildNode`]).
+/// The pair of the children at `l, l + 1` (`l` is always odd: the root is alone at 0) is
+/// `pairs[(l - 1) / 2]`; traversal reads only pairs (and the root node).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Pair {
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+    /// `[left first, left count, right first, right count]`.
+    kids: [u32; 4],
+}
+
+impl Pair {
+    fn of(l: &Node, r: &Node) -> Pair {
+        let axis = |k: usize| Vec4::new(l.lo[k], r.lo[k], l.hi[k], r.hi[k]);
+        Pair { x: axis(0), y: axis(1), z: axis(2), kids: [l.first(), l.count(), r.first(), r.count()] }
+    }
+}
+
 /// A triangle's corners, exactly as given (watertightness needs shared corners bit-identical).
 #[derive(Debug, Clone, Copy)]
 struct Prepared {
@@ -87,8 +110,9 @@ struct Prepared {
 #[derive(Debug, Clone, Copy)]
 struct Ray {
     origin: Vec3,
-    kx: usize,
-    ky: usize,
+    /// The dominant axis; the other two are `(kz + 1) % 3` and `(kz + 2) % 3`. (Woop et al. swap
+    /// those two when `dir[kz] < 0` to keep the winding; that only negates u, v, w, det and the
+    /// scaled t exactly, so the test is the same without it.)
     kz: usize,
     sx: f32,
     sy: f32,
@@ -105,11 +129,8 @@ impl Ray {
         } else {
             2
         };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        Ray { origin, kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        Ray { origin, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
     }
 }
 
@@ -117,6 +138,8 @@ impl Ray {
 #[derive(Debug, Clone)]
 pub struct Bvh {
     nodes: Vec<Node>,
+    /// Children boxes of the interior nodes, see [`Pair`].
+    pairs: Vec<Pair>,
     tris: Vec<Prepared>,
     ids: Vec<u32>,
 }
@@ -211,7 +234,10 @@ impl Bvh {
                 Prepared { v0: a, v1: b, v2: c }
             })
             .collect();
-        Bvh { nodes: nodes.iter().map(Node::pack).collect(), tris, ids }
+        let nodes: Vec<Node> = nodes.iter().map(Node::pack).collect();
+        let pairs =
+            nodes.get(1..).unwrap_or_default().chunks_exact(2).map(|c| Pair::of(&c[0], &c[1])).collect();
+        Bvh { nodes, pairs, tris, ids }
     }
 
     /// Number of triangles the tree holds (non-finite input triangles are left out).
@@ -239,25 +265,112 @@ impl Bvh {
         self.traverse::<true>(origin, dir, t_max).is_some()
     }
 
+    /// Split the triangles into spatially coherent groups: call `f` once per largest subtree that
+    /// holds at most `max` triangles (or per leaf, when a leaf holds more), with the indices (in
+    /// the build slice) of its triangles, in a fixed order. Every triangle is in exactly one group.
+    pub fn groups(&self, max: usize, mut f: impl FnMut(&[u32])) {
+        if self.ids.is_empty() {
+            return;
+        }
+        // A subtree's triangles are contiguous. Children come after their parent in `nodes`, so
+        // one backward pass gives every subtree's range.
+        let mut range = vec![(0u32, 0u32); self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            let n = &self.nodes[i];
+            range[i] = if n.count() > 0 {
+                (n.first(), n.first() + n.count())
+            } else {
+                let l = n.first() as usize;
+                (range[l].0, range[l + 1].1)
+            };
+        }
+        let mut stack = [0u32; STACK];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let ni = stack[sp] as usize;
+            let (a, b) = (range[ni].0 as usize, range[ni].1 as usize);
+            let node = &self.nodes[ni];
+            if node.count() > 0 || b - a <= max || sp + 2 > STACK {
+                f(&self.ids[a..b]);
+            } else {
+                stack[sp] = node.first() + 1;
+                stack[sp + 1] = node.first();
+                sp += 2;
+            }
+        }
+    }
+
+    /// Call `f` with the index (in the build slice) of every triangle whose bounding box overlaps
+    /// the box `min..max` (closed boxes: touching counts), in a fixed order.
+    pub fn overlapping(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32)) {
+        if self.ids.is_empty() {
+            return;
+        }
+        let (min, max) = (Vec3A::from(min), Vec3A::from(max));
+        let overlaps = |lo: Vec3A, hi: Vec3A| lo.cmple(max).all() && hi.cmpge(min).all();
+        let mut stack = [0u32; STACK];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let node = &self.nodes[stack[sp] as usize];
+            if !overlaps(Vec3A::from_vec4(node.lo), Vec3A::from_vec4(node.hi)) {
+                continue;
+            }
+            let first = node.first() as usize;
+            if node.count() > 0 {
+                for k in first..first + node.count() as usize {
+                    let t = &self.tris[k];
+                    let (a, b, c) = (Vec3A::from(t.v0), Vec3A::from(t.v1), Vec3A::from(t.v2));
+                    if overlaps(a.min(b).min(c), a.max(b).max(c)) {
+                        f(self.ids[k]);
+                    }
+                }
+            } else if sp + 2 <= STACK {
+                // The build keeps the tree shallower than the stack.
+                stack[sp] = first as u32 + 1;
+                stack[sp + 1] = first as u32;
+                sp += 2;
+            }
+        }
+    }
+
     fn traverse<const ANY: bool>(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
         if self.ids.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
-        let inv = Vec3A::from(dir.recip());
-        let o = Vec3A::from(origin);
         let ray = Ray::new(origin, dir);
+        // One traversal per dominant axis, so that the triangle test indexes by constants.
+        match ray.kz {
+            0 => self.walk::<ANY, 0>(&ray, dir, t_max),
+            1 => self.walk::<ANY, 1>(&ray, dir, t_max),
+            _ => self.walk::<ANY, 2>(&ray, dir, t_max),
+        }
+    }
+
+    fn walk<const ANY: bool, const KZ: usize>(&self, ray: &Ray, dir: Vec3, t_max: f32) -> Option<Hit> {
+        let origin = ray.origin;
+        // Zero direction components become the smallest normal float (of the same sign), so that
+        // slab distances are never 0 × ∞ = NaN.
+        let safe = |d: f32| if d == 0.0 { f32::MIN_POSITIVE.copysign(d) } else { d };
+        let inv = Vec3A::new(safe(dir.x), safe(dir.y), safe(dir.z)).recip();
+        let (o4, inv4) = (
+            [Vec4::splat(origin.x), Vec4::splat(origin.y), Vec4::splat(origin.z)],
+            [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+        );
+        let o = Vec3A::from(origin);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
-        let mut stack = [(0u32, 0f32); STACK];
+        // Stack of (first, count, entry distance) of nodes still to visit.
+        let mut stack = [(0u32, 0u32, 0f32); STACK];
         let mut sp = 0usize;
-        let mut ni = 0usize;
         box_hit(&self.nodes[0], o, inv, t_best)?;
+        let (mut first, mut count) = (self.nodes[0].first(), self.nodes[0].count());
         loop {
-            let node = &self.nodes[ni];
-            if node.count() > 0 {
-                let first = node.first() as usize;
-                for k in first..first + node.count() as usize {
-                    if let Some((t, u, v)) = tri_hit(&self.tris[k], &ray, t_best) {
+            if count > 0 {
+                let first = first as usize;
+                for k in first..first + count as usize {
+                    if let Some((t, u, v)) = tri_hit::<KZ>(&self.tris[k], ray, t_best) {
                         t_best = t;
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
                         if ANY {
@@ -266,29 +379,31 @@ impl Bvh {
                     }
                 }
             } else {
-                let l = node.first() as usize;
-                let tl = box_hit(&self.nodes[l], o, inv, t_best);
-                let tr = box_hit(&self.nodes[l + 1], o, inv, t_best);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (l, l + 1) } else { (l + 1, l) };
+                let pair = &self.pairs[(first as usize - 1) / 2];
+                let (near, far) = pair_hit(pair, &o4, &inv4, t_best);
+                let k = pair.kids;
+                match (near.x <= far.x, near.y <= far.y) {
+                    (true, true) => {
+                        let (a, b) = (near.x, near.y);
+                        let (n, f) =
+                            if a <= b { ((k[0], k[1]), (k[2], k[3])) } else { ((k[2], k[3]), (k[0], k[1])) };
                         // The build keeps the tree shallower than the stack.
                         if sp < STACK {
-                            stack[sp] = (far as u32, a.max(b));
+                            stack[sp] = (f.0, f.1, a.max(b));
                             sp += 1;
                         }
-                        ni = near;
+                        (first, count) = n;
                         continue;
                     }
-                    (Some(_), None) => {
-                        ni = l;
+                    (true, false) => {
+                        (first, count) = (k[0], k[1]);
                         continue;
                     }
-                    (None, Some(_)) => {
-                        ni = l + 1;
+                    (false, true) => {
+                        (first, count) = (k[2], k[3]);
                         continue;
                     }
-                    (None, None) => {}
+                    (false, false) => {}
                 }
             }
             // Pop, skipping nodes that the current best hit already rules out.
@@ -297,9 +412,9 @@ impl Bvh {
                     return best;
                 }
                 sp -= 1;
-                let (cand, t_enter) = stack[sp];
+                let (f, c, t_enter) = stack[sp];
                 if t_enter <= t_best {
-                    ni = cand as usize;
+                    (first, count) = (f, c);
                     break;
                 }
             }
@@ -399,16 +514,30 @@ fn box_hit(node: &Node, origin: Vec3A, inv: Vec3A, t_max: f32) -> Option<f32> {
     (tnear <= tfar).then_some(tnear)
 }
 
+/// Entry and exit distances (lanes 0 and 1: left and right child) of the ray into both children
+/// boxes of a [`Pair`], the same arithmetic as [`box_hit`] lane by lane; a child is entered when
+/// its entry is not after its exit.
+#[inline(always)]
+fn pair_hit(p: &Pair, o: &[Vec4; 3], inv: &[Vec4; 3], t_max: f32) -> (Vec4, Vec4) {
+    let tx = (p.x - o[0]) * inv[0];
+    let ty = (p.y - o[1]) * inv[1];
+    let tz = (p.z - o[2]) * inv[2];
+    let (sx, sy, sz) = (tx.zwxy(), ty.zwxy(), tz.zwxy());
+    let near = tx.min(sx).max(ty.min(sy)).max(tz.min(sz)).max(Vec4::ZERO);
+    let far = tx.max(sx).min(ty.max(sy)).min(tz.max(sz)).min(Vec4::splat(t_max)) * (1.0 + 4.0 * f32::EPSILON);
+    (near, far)
+}
+
 /// Watertight ray/triangle test (Woop, Benthin and Wald 2013): `(t, u, v)` when the ray hits the
 /// triangle with `0 < t < t_max`. Rays through a shared edge or corner hit at least one of the
 /// triangles sharing it, so nothing leaks through the seams of a closed mesh; edge functions that
 /// come out exactly zero are recomputed in `f64`.
 #[inline(always)]
-fn tri_hit(tri: &Prepared, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+fn tri_hit<const KZ: usize>(tri: &Prepared, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
     let a = tri.v0 - ray.origin;
     let b = tri.v1 - ray.origin;
     let c = tri.v2 - ray.origin;
-    let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+    let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
     let ax = a[kx] - ray.sx * a[kz];
     let ay = a[ky] - ray.sy * a[kz];
     let bx = b[kx] - ray.sx * b[kz];
@@ -453,7 +582,12 @@ pub fn intersect_brute(triangles: &[[Vec3; 3]], origin: Vec3, dir: Vec3, t_max: 
             continue;
         }
         let tri = Prepared { v0: a, v1: b, v2: c };
-        if let Some((t, u, v)) = tri_hit(&tri, &ray, t_best) {
+        let hit = match ray.kz {
+            0 => tri_hit::<0>(&tri, &ray, t_best),
+            1 => tri_hit::<1>(&tri, &ray, t_best),
+            _ => tri_hit::<2>(&tri, &ray, t_best),
+        };
+        if let Some((t, u, v)) = hit {
             t_best = t;
             best = Some(Hit { t, triangle: i as u32, u, v });
         }
@@ -528,6 +662,43 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn overlapping_lists_exactly_the_overlapping_boxes(
+            tris in prop::collection::vec(tri_strategy(), 1..200),
+            (cx, cy, cz, r) in (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0, 0.0f32..4.0),
+        ) {
+            let bvh = Bvh::build(&tris);
+            let (lo, hi) = (Vec3::new(cx, cy, cz) - r, Vec3::new(cx, cy, cz) + r);
+            let mut got = Vec::new();
+            bvh.overlapping(lo, hi, |t| got.push(t));
+            got.sort_unstable();
+            let want: Vec<u32> = (0..tris.len() as u32)
+                .filter(|&i| {
+                    let t = tris[i as usize];
+                    let (a, b) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                    a.cmple(hi).all() && b.cmpge(lo).all()
+                })
+                .collect();
+            prop_assert_eq!(got, want);
+        }
+
+        #[test]
+        fn groups_partition_the_triangles(
+            tris in prop::collection::vec(tri_strategy(), 1..300),
+            max in 1usize..40,
+        ) {
+            let bvh = Bvh::build(&tris);
+            let mut all = Vec::new();
+            let mut sizes = Vec::new();
+            bvh.groups(max, |g| {
+                sizes.push(g.len());
+                all.extend_from_slice(g);
+            });
+            prop_assert!(sizes.iter().all(|&n| n > 0 && n <= max.max(MAX_LEAF)), "{sizes:?}");
+            all.sort_unstable();
+            prop_assert_eq!(all, (0..tris.len() as u32).collect::<Vec<_>>());
+        }
+
         #[test]
         fn agrees_with_brute_force(
             tris in prop::collection::vec(tri_strategy(), 1..300),

@@ -126,16 +126,17 @@ fn incremental_update_matches_a_fresh_run_within_sampling_error() {
     let bvh = Bvh::build(&scene.triangles);
     let (lo, hi) = scene.cells[0];
     let cell = Cell::new(lo, hi);
-    let p = Variant::Silhouette.params(Params { window: 30_000, ..Params::default() });
+    let p = Variant::ProbeFirstTarget.params(Params { window: 30_000, ..Params::default() });
     let shift = Vec3::new(1.0, 0.5, 0.0);
     let before = sampler::run(&scene.triangles, &bvh, cell, p);
     let updated = update::update(&scene.triangles, &bvh, &before, shift, p);
     let fresh = sampler::run(&scene.triangles, &bvh, cell.translated(shift), p);
-    let fresh2 = sampler::run(&scene.triangles, &bvh, cell.translated(shift), Params { seed: 977, ..p });
+    let fresh2 =
+        sampler::run(&scene.triangles, &bvh, cell.translated(shift), Params { seed: 1_000_003, ..p });
     let d_update = difference(&updated.sorted(), &fresh.sorted());
     let d_seeds = difference(&fresh2.sorted(), &fresh.sorted());
     eprintln!(
-        "pvs before {} updated {} fresh {} fresh(seed 977) {}; difference update {d_update:.4}, seeds {d_seeds:.4}; rays update {} fresh {}",
+        "pvs before {} updated {} fresh {} fresh(seed 1000003) {}; difference update {d_update:.4}, seeds {d_seeds:.4}; rays update {} fresh {}",
         before.entries.len(),
         updated.entries.len(),
         fresh.entries.len(),
@@ -217,4 +218,22 @@ fn hostile_obj_files_are_errors_not_panics() {
     assert_eq!(backend.num_cells(), 1);
     assert_eq!(backend.cell_faces(0), &[0]);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn target_sampling_finds_a_small_isolated_triangle() {
+    // A small triangle far away and nothing else: about 2e-7 of the rays leaving the cell hit it,
+    // so a few thousand random rays (and ABS, which needs a first hit) never find it.
+    let mut tris = vec![small_triangle(Vec3::new(200.0, 10.0, 5.0), 0.3)];
+    // A wall behind the cell keeps ABS busy; its triangles are far from the target, so the BVH
+    // groups them apart from it.
+    wall_x(&mut tris, -30.0, (-40.0, 40.0), (-40.0, 40.0));
+    let bvh = Bvh::build(&tris);
+    let few = Params { max_random: 3_000, window: 2_000, first: 1_000, ..Params::default() };
+    let stock = sampler::run(&tris, &bvh, cell(), Variant::ProbeFirst.params(few));
+    assert!(!stock.sorted().contains(&0), "premise: random rays alone found it");
+    let target = sampler::run(&tris, &bvh, cell(), Variant::ProbeFirstTarget.params(few));
+    assert!(target.sorted().contains(&0), "target sampling missed it: {:?}", target.stats);
+    // Only groups without a PVS triangle get target rays, two each.
+    assert!(target.stats.target > 0 && target.stats.target <= 2 * 4, "{:?}", target.stats);
 }

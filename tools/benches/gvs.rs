@@ -54,7 +54,7 @@ fn bench(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("gvs");
     g.sample_size(10);
-    for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette] {
+    for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette, Variant::ProbeFirstTarget] {
         g.bench_function(format!("{} city:100 street cell", v.name()), |b| {
             b.iter(|| {
                 black_box(

@@ -5,8 +5,9 @@
 //! - `z` is up; units are arbitrary world units (a city block is [`BLOCK`] units wide).
 //! - Every generator is deterministic for a given size and seed.
 //! - Each scene also suggests view cells ([`Scene::cells`]): boxes in open space where a viewer
-//!   could stand (a street crossing of the city, the empty middle of the sphere box, a slab above
-//!   the mesh). `sightline gvs --cell auto` uses them.
+//!   could stand (five street blocks of the city spread over it, the empty middle of the sphere
+//!   box and four more empty boxes, a slab above the mesh). `sightline gvs --cell auto` uses
+//!   them.
 
 use glam::Vec3;
 
@@ -214,23 +215,30 @@ pub fn city(n: usize, seed: u64) -> Scene {
             }
         }
     }
-    // Suggested cell: the street block nearest the centre, at eye height.
-    let mut cells = Vec::new();
-    let centre = (n / 2) as isize;
-    let mut best: Option<(isize, usize, usize)> = None;
-    for j in 0..n {
-        for i in 0..n {
-            if !solid[j * n + i] {
-                let d = (i as isize - centre).abs() + (j as isize - centre).abs();
-                if best.is_none_or(|(bd, _, _)| d < bd) {
-                    best = Some((d, i, j));
+    // Suggested cells: the street blocks nearest the centre and nearest the centres of the four
+    // quadrants, at eye height.
+    let mut cells: Vec<(Vec3, Vec3)> = Vec::new();
+    let targets =
+        [(n / 2, n / 2), (n / 4, n / 4), (3 * n / 4, n / 4), (n / 4, 3 * n / 4), (3 * n / 4, 3 * n / 4)];
+    for (ti, tj) in targets {
+        let mut best: Option<(usize, usize, usize)> = None;
+        for j in 0..n {
+            for i in 0..n {
+                if !solid[j * n + i] {
+                    let d = i.abs_diff(ti) + j.abs_diff(tj);
+                    if best.is_none_or(|(bd, _, _)| d < bd) {
+                        best = Some((d, i, j));
+                    }
                 }
             }
         }
-    }
-    if let Some((_, i, j)) = best {
-        let o = Vec3::new(i as f32 * BLOCK, j as f32 * BLOCK, 0.0);
-        cells.push((o + Vec3::new(3.0, 3.0, 1.0), o + Vec3::new(7.0, 7.0, 3.0)));
+        if let Some((_, i, j)) = best {
+            let o = Vec3::new(i as f32 * BLOCK, j as f32 * BLOCK, 0.0);
+            let cell = (o + Vec3::new(3.0, 3.0, 1.0), o + Vec3::new(7.0, 7.0, 3.0));
+            if !cells.contains(&cell) {
+                cells.push(cell);
+            }
+        }
     }
     Scene { triangles: tris, cells }
 }
@@ -260,16 +268,24 @@ fn sphere(out: &mut Vec<[Vec3; 3]>, c: Vec3, r: f32) {
 
 /// `n` objects with random centres in a [`SPHERE_BOX`]³ box: tessellated spheres of radius
 /// 0.3–0.9 (80 triangles each), or with `mixed` every second one a single random triangle of
-/// similar size. A 4³ box in the middle is kept free for the suggested view cell (2³).
+/// similar size. 4³ boxes are kept free around the suggested view cells (2³): the middle of the
+/// box first, then four more around it.
 pub fn spheres(n: usize, mixed: bool, seed: u64) -> Scene {
     let mut rng = Rng::new(seed ^ 0x9E37_79B9_7F4A_7C15);
     let mut tris = Vec::with_capacity(n * 80);
     let mid = Vec3::splat(SPHERE_BOX / 2.0);
+    let centres = [
+        mid,
+        mid + Vec3::new(-10.0, -10.0, -10.0),
+        mid + Vec3::new(10.0, 10.0, 10.0),
+        mid + Vec3::new(10.0, -10.0, 0.0),
+        mid + Vec3::new(-10.0, 10.0, 0.0),
+    ];
     let mut k = 0;
     while k < n {
         let c = Vec3::new(rng.range(0.0, SPHERE_BOX), rng.range(0.0, SPHERE_BOX), rng.range(0.0, SPHERE_BOX));
         let r = rng.range(0.3, 0.9);
-        if (c - mid).abs().max_element() < 2.0 + r {
+        if centres.iter().any(|&m| (c - m).abs().max_element() < 2.0 + r) {
             continue;
         }
         if mixed && k % 2 == 1 {
@@ -280,7 +296,7 @@ pub fn spheres(n: usize, mixed: bool, seed: u64) -> Scene {
         }
         k += 1;
     }
-    Scene { triangles: tris, cells: vec![(mid - Vec3::ONE, mid + Vec3::ONE)] }
+    Scene { triangles: tris, cells: centres.iter().map(|&m| (m - Vec3::ONE, m + Vec3::ONE)).collect() }
 }
 
 /// A flat square grid of at least `n` triangles at `z = 0`, 100 units wide; the suggested cell is a
@@ -312,7 +328,7 @@ mod tests {
         let b = city(12, 7);
         assert_eq!(a.triangles, b.triangles);
         assert!(a.triangles.len() > 12 * 12 * 8);
-        assert_eq!(a.cells.len(), 1);
+        assert!(!a.cells.is_empty());
         let s = spheres(50, false, 1);
         assert_eq!(s.triangles.len(), 50 * 80);
         let m = spheres(50, true, 1);
@@ -323,12 +339,14 @@ mod tests {
     #[test]
     fn suggested_cells_are_empty_of_geometry() {
         for scene in [city(15, 3), spheres(300, true, 2)] {
-            let (lo, hi) = scene.cells[0];
+            assert!(scene.cells.len() > 1);
             for t in &scene.triangles {
-                let tmin = t[0].min(t[1]).min(t[2]);
-                let tmax = t[0].max(t[1]).max(t[2]);
-                let overlap = tmin.cmplt(hi).all() && tmax.cmpgt(lo).all();
-                assert!(!overlap, "triangle {t:?} overlaps cell {lo:?}..{hi:?}");
+                for &(lo, hi) in &scene.cells {
+                    let tmin = t[0].min(t[1]).min(t[2]);
+                    let tmax = t[0].max(t[1]).max(t[2]);
+                    let overlap = tmin.cmplt(hi).all() && tmax.cmpgt(lo).all();
+                    assert!(!overlap, "triangle {t:?} overlaps cell {lo:?}..{hi:?}");
+                }
             }
         }
     }

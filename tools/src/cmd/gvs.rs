@@ -4,7 +4,7 @@
 //! compiled level (`.slvl`). Cells: `auto` (the generator's suggestion), a grid cell size, `leaves`
 //! (a level's open leaves), or `x0,y0,z0,x1,y1,z1`; `--cell` can be repeated.
 //!
-//! With `--compare`, every variant (stock GVS, `d4`, `adt`, edge-point) runs on the same cells and is
+//! With `--compare`, every variant ([`Variant::ALL`]) runs on the same cells and is
 //! measured against the same ID buffers, and the incremental update is compared with a fresh run on
 //! the cell moved by `--move`.
 
@@ -34,9 +34,10 @@ pub struct Args {
     /// Use at most this many cells (evenly spaced through the list).
     #[arg(long)]
     pub max_cells: Option<usize>,
-    /// Variant to run: gvs (stock), d4, adt, edgepoint, edgepoint+sil (the default: the edge-point
-    /// walk with corner re-seeding, the most accurate per ray).
-    #[arg(long, default_value = "edgepoint+sil")]
+    /// Variant to run: gvs (stock), d4, adt, edgepoint, first, edgepoint+sil, edgepoint+probe,
+    /// edgepoint+probe+first, edgepoint+probe+first+target (the default: the most accurate per
+    /// ray).
+    #[arg(long, default_value = "edgepoint+probe+first+target")]
     pub variant: String,
     /// Run every variant and the incremental update side by side and print a table.
     #[arg(long)]
@@ -81,6 +82,12 @@ pub struct Args {
     /// Cap on random rays per cell.
     #[arg(long)]
     pub max_random: Option<u64>,
+    /// Initial random rays of the "first" variants (default 100000).
+    #[arg(long)]
+    pub first: Option<u64>,
+    /// Rays per unexplored triangle group of the "target" variant (default 2).
+    #[arg(long)]
+    pub targets: Option<u32>,
     /// Edge-point walk without the forced midpoint ray.
     #[arg(long)]
     pub no_midpoint: bool,
@@ -99,6 +106,11 @@ pub struct Args {
     /// Write the level with the per-cell face sets to this `.slvl`.
     #[arg(short = 'o', long)]
     pub output: Option<std::path::PathBuf>,
+    /// List the N triangles with most wrong pixels in every measured view of the first variant
+    /// run (pixels, distance from the eye, |cos| between its normal and the view ray), to find
+    /// where the error comes from. Text output only.
+    #[arg(long, default_value_t = 0)]
+    pub missed: usize,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -116,11 +128,22 @@ struct Row {
     reverse: u64,
     reuse: u64,
     silhouette: u64,
+    probe: u64,
+    target: u64,
     discontinuities: u64,
     seconds: f64,
     pvs: usize,
     error_mean: Option<f64>,
     error_max: Option<u64>,
+    /// All the variant's rays over the process CPU seconds of its run (GVS bookkeeping
+    /// included, so a lower bound of the ray-casting rate).
+    gvs_rays_per_cpu_second: Option<f64>,
+}
+
+/// Rays of all cells over `cpu` seconds.
+fn rate(pvs: &[Pvs], cpu: Option<f64>) -> Option<f64> {
+    let rays: u64 = pvs.iter().map(|p| p.stats.rays).sum();
+    cpu.filter(|&c| c > 0.0).map(|c| rays as f64 / c)
 }
 
 /// The JSON report.
@@ -142,6 +165,9 @@ struct Report {
     rays_per_second_per_core: f64,
     rays_per_cpu_second: Option<f64>,
 }
+
+/// The variant the incremental update is compared with (and starts from).
+const BEST: Variant = Variant::ProbeFirstTarget;
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
@@ -185,13 +211,16 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     let variants: Vec<Variant> =
         if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
     let mut rows = Vec::new();
-    let mut results: Vec<(Variant, Vec<Pvs>)> = Vec::new();
+    // Per variant: the cells' results and the process CPU seconds their run took.
+    let mut results: Vec<(Variant, Vec<Pvs>, Option<f64>)> = Vec::new();
     for &v in &variants {
         let bar = progress::bar(v.name(), cells.len() as u64, args.json);
         let p = v.params(params);
+        let cpu0 = cpu_seconds();
         let pvs = gvs::run_cells(&scene.triangles, &bvh, &cells, p, &|| bar.inc(1));
+        let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
         bar.finish_and_clear();
-        results.push((v, pvs));
+        results.push((v, pvs, cpu));
     }
 
     // Error measurement: the same ID buffers for every variant.
@@ -226,25 +255,37 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     bar.finish_and_clear();
     let mut error_seconds = t_err.elapsed().as_secs_f64();
     let mut error_cpu = cpu_seconds().zip(cpu_err).map(|(b, a)| b - a);
-    for (v, pvs) in &results {
-        rows.push(row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len()));
+    if args.missed > 0
+        && !args.json
+        && let Some((v, pvs, _)) = results.first()
+    {
+        print_missed(args, v.name(), &scene.triangles, &cells, pvs, &measured, &cell_buffers);
+    }
+    for (v, pvs, cpu) in &results {
+        let mut r = row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len());
+        r.gvs_rays_per_cpu_second = rate(pvs, *cpu);
+        rows.push(r);
     }
 
     if args.compare {
         // Incremental update against a fresh run on the moved cell, best variant's parameters.
-        let base = Variant::Silhouette.params(params);
+        let base = BEST.params(params);
         let shift = match &args.move_by {
             Some(s) => parse_vec(s)?,
             None => Vec3::X * ((cells[0].max.x - cells[0].min.x) * 0.25),
         };
-        let prev = results.iter().find(|(v, _)| *v == Variant::Silhouette).map(|(_, p)| p);
+        let prev = results.iter().find(|(v, _, _)| *v == BEST).map(|(_, p, _)| p);
         if let Some(prev) = prev {
             let moved: Vec<Cell> = cells.iter().map(|c| c.translated(shift)).collect();
+            let cpu0 = cpu_seconds();
             let fresh = gvs::run_cells(&scene.triangles, &bvh, &moved, base, &|| {});
+            let cpu1 = cpu_seconds();
             let updated: Vec<Pvs> = {
                 use rayon::prelude::*;
                 prev.par_iter().map(|p| update::update(&scene.triangles, &bvh, p, shift, base)).collect()
             };
+            let (cpu_fresh, cpu_update) =
+                (cpu1.zip(cpu0).map(|(b, a)| b - a), cpu_seconds().zip(cpu1).map(|(b, a)| b - a));
             let t_err2 = Instant::now();
             let cpu2 = cpu_seconds();
             let moved_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
@@ -257,8 +298,18 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             };
             error_seconds += t_err2.elapsed().as_secs_f64();
             error_cpu = error_cpu.zip(cpu_seconds().zip(cpu2)).map(|(e, (b, a))| e + b - a);
-            rows.push(row("edgepoint+sil@moved", &fresh, &measured, &moved_buffers, scene.triangles.len()));
-            rows.push(row("incremental@moved", &updated, &measured, &moved_buffers, scene.triangles.len()));
+            let mut r = row(
+                &format!("{}@moved", BEST.name()),
+                &fresh,
+                &measured,
+                &moved_buffers,
+                scene.triangles.len(),
+            );
+            r.gvs_rays_per_cpu_second = rate(&fresh, cpu_fresh);
+            rows.push(r);
+            let mut r = row("incremental@moved", &updated, &measured, &moved_buffers, scene.triangles.len());
+            r.gvs_rays_per_cpu_second = rate(&updated, cpu_update);
+            rows.push(r);
         }
     }
 
@@ -284,7 +335,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     };
 
     if let Some(out) = &args.output {
-        let (v, pvs) = &results[0];
+        let (v, pvs, _) = &results[0];
         let mut level = match level {
             Some(l) => l,
             None => gvs::soup_level(&scene.triangles),
@@ -315,6 +366,8 @@ fn params(args: &Args) -> Params {
         min_new: args.min_new.unwrap_or(d.min_new),
         max_rays: args.max_rays.unwrap_or(d.max_rays),
         max_random: args.max_random.unwrap_or(d.max_random),
+        first: args.first.unwrap_or(d.first),
+        targets: args.targets.unwrap_or(d.targets),
         midpoint: !args.no_midpoint,
         reverse: !args.no_reverse,
         seed: args.seed,
@@ -323,10 +376,12 @@ fn params(args: &Args) -> Params {
 }
 
 fn parse_variant(s: &str) -> anyhow::Result<Variant> {
-    Variant::ALL
-        .into_iter()
-        .find(|v| v.name() == s || (s == "stock" && *v == Variant::Stock))
-        .with_context(|| format!("unknown variant `{s}` (gvs, d4, adt, edgepoint, edgepoint+sil)"))
+    Variant::ALL.into_iter().find(|v| v.name() == s || (s == "stock" && *v == Variant::Stock)).with_context(
+        || {
+            let names: Vec<&str> = Variant::ALL.iter().map(|v| v.name()).collect();
+            format!("unknown variant `{s}` ({})", names.join(", "))
+        },
+    )
 }
 
 fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n: usize) -> Row {
@@ -339,6 +394,8 @@ fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n
         s.reverse += p.stats.reverse;
         s.reuse += p.stats.reuse;
         s.silhouette += p.stats.silhouette;
+        s.probe += p.stats.probe;
+        s.target += p.stats.target;
         s.discontinuities += p.stats.discontinuities;
         s.seconds += p.stats.seconds;
     }
@@ -364,11 +421,51 @@ fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n
         reverse: s.reverse / cells as u64,
         reuse: s.reuse / cells as u64,
         silhouette: s.silhouette / cells as u64,
+        probe: s.probe / cells as u64,
+        target: s.target / cells as u64,
         discontinuities: s.discontinuities / cells as u64,
         seconds: s.seconds / cells as f64,
         pvs: pvs_total / cells,
         error_mean: (count > 0).then(|| sum / count as f64),
         error_max: (count > 0).then_some(max),
+        gvs_rays_per_cpu_second: None,
+    }
+}
+
+/// The `--missed` listing.
+fn print_missed(
+    args: &Args,
+    name: &str,
+    tris: &[[Vec3; 3]],
+    cells: &[Cell],
+    pvs: &[Pvs],
+    measured: &[usize],
+    buffers: &[Vec<Vec<u32>>],
+) {
+    for (k, &i) in measured.iter().enumerate() {
+        let (Some(cell), Some(p), Some(bufs)) = (cells.get(i), pvs.get(i), buffers.get(k)) else {
+            continue;
+        };
+        let bits = p.bitset(tris.len());
+        let views = error::views(cell, args.views, args.seed.wrapping_add(i as u64));
+        for (vi, (view, ids)) in views.iter().zip(bufs).enumerate() {
+            let m = error::missed(ids, &bits);
+            let total: u64 = m.iter().map(|x| x.1).sum();
+            println!("{name} cell {i} view {vi}: {total} wrong pixels on {} triangles", m.len());
+            for &(t, px) in m.iter().take(args.missed) {
+                let Some(tri) = tris.get(t as usize) else {
+                    continue;
+                };
+                let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+                let to_eye = (view.eye - centre).normalize_or_zero();
+                println!(
+                    "  triangle {t}: {px} px, {:.2} from the eye, |cos| {:.3}",
+                    (centre - view.eye).length(),
+                    n.dot(to_eye).abs()
+                );
+            }
+        }
     }
 }
 
@@ -385,7 +482,7 @@ fn print_table(r: &Report) {
         r.error_fov
     );
     println!(
-        "{:<20} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8}",
+        "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8}",
         "variant",
         "rays",
         "random",
@@ -393,17 +490,21 @@ fn print_table(r: &Report) {
         "edge",
         "reverse",
         "silhou.",
+        "probe",
+        "target",
         "reuse",
         "seconds",
         "pvs",
         "err mean",
-        "err max"
+        "err max",
+        "Mray/cpu"
     );
     for row in &r.rows {
         let mean = row.error_mean.map_or("-".to_string(), |m| format!("{m:.1}"));
         let max = row.error_max.map_or("-".to_string(), |m| m.to_string());
+        let rate = row.gvs_rays_per_cpu_second.map_or("-".to_string(), |r| format!("{:.2}", r / 1e6));
         println!(
-            "{:<20} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>8.3} {:>8} {:>9} {:>8}",
+            "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.3} {:>8} {:>9} {:>8} {:>8}",
             row.variant,
             row.rays,
             row.random,
@@ -411,11 +512,14 @@ fn print_table(r: &Report) {
             row.edge,
             row.reverse,
             row.silhouette,
+            row.probe,
+            row.target,
             row.reuse,
             row.seconds,
             row.pvs,
             mean,
-            max
+            max,
+            rate
         );
     }
     if r.error_rays > 0 {

@@ -64,10 +64,49 @@ pub fn error_pixels(ids: &[u32], pvs: &[u64]) -> u64 {
         .count() as u64
 }
 
+/// The triangles of `ids` missing from the PVS bitset `pvs` with their pixel counts, most pixels
+/// first (ties by triangle index).
+pub fn missed(ids: &[u32], pvs: &[u64]) -> Vec<(u32, u64)> {
+    let mut m: Vec<(u32, u64)> = Vec::new();
+    let mut tris: Vec<u32> = ids
+        .iter()
+        .copied()
+        .filter(|&t| t != u32::MAX && pvs.get(t as usize / 64).is_none_or(|w| w & (1 << (t % 64)) == 0))
+        .collect();
+    tris.sort_unstable();
+    for t in tris {
+        match m.last_mut() {
+            Some((last, n)) if *last == t => *n += 1,
+            _ => m.push((t, 1)),
+        }
+    }
+    m.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    m
+}
+
 /// Error of one PVS against precomputed ID buffers: (mean, max) wrong pixels per view.
+///
+/// (See [`missed`] for which triangles they are.)
 pub fn measure(buffers: &[Vec<u32>], pvs: &[u64]) -> (f64, u64) {
     let errs: Vec<u64> = buffers.iter().map(|b| error_pixels(b, pvs)).collect();
     let max = errs.iter().copied().max().unwrap_or(0);
     let mean = if errs.is_empty() { 0.0 } else { errs.iter().sum::<u64>() as f64 / errs.len() as f64 };
     (mean, max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missed_counts_pixels_of_triangles_outside_the_pvs() {
+        // Triangles 1 and 64 are in the PVS; 2 (three pixels) and 70 (one) are not.
+        let mut pvs = vec![0u64; 2];
+        pvs[0] |= 1 << 1;
+        pvs[1] |= 1;
+        let ids = [1, 2, u32::MAX, 70, 2, 64, 2];
+        assert_eq!(missed(&ids, &pvs), vec![(2, 3), (70, 1)]);
+        assert_eq!(error_pixels(&ids, &pvs), 4);
+        assert_eq!(measure(&[ids.to_vec(), vec![1]], &pvs), (2.0, 4));
+    }
 }

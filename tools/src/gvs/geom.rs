@@ -18,8 +18,28 @@ pub struct Cell {
 const PRIMES: [u32; 5] = [2, 3, 5, 7, 11];
 
 /// Radical inverse of `i` in base `b`: the `i`-th Halton number, in `[0, 1)`.
-pub fn halton(mut i: u64, b: u32) -> f32 {
-    let b = u64::from(b);
+pub fn halton(i: u64, b: u32) -> f32 {
+    // The bases in use get constant divisors (multiplications instead of divisions).
+    match b {
+        2 => radical_inverse::<2>(i),
+        3 => radical_inverse::<3>(i),
+        5 => radical_inverse::<5>(i),
+        7 => radical_inverse::<7>(i),
+        11 => radical_inverse::<11>(i),
+        _ => radical_inverse_in(i, u64::from(b)),
+    }
+}
+
+#[inline(always)]
+fn radical_inverse<const B: u64>(i: u64) -> f32 {
+    radical_inverse_in(i, B)
+}
+
+#[inline(always)]
+fn radical_inverse_in(mut i: u64, b: u64) -> f32 {
+    if b < 2 {
+        return 0.0;
+    }
     let mut f = 1.0f64;
     let mut r = 0.0f64;
     while i > 0 {
@@ -39,6 +59,17 @@ impl Cell {
     /// Centre.
     pub fn centre(&self) -> Vec3 {
         (self.min + self.max) * 0.5
+    }
+
+    /// The eight corners; bit 0 of the index picks `max.x`, bit 1 `max.y`, bit 2 `max.z`.
+    pub fn corners(&self) -> [Vec3; 8] {
+        std::array::from_fn(|k| {
+            Vec3::new(
+                if k & 1 != 0 { self.max.x } else { self.min.x },
+                if k & 2 != 0 { self.max.y } else { self.min.y },
+                if k & 4 != 0 { self.max.z } else { self.min.z },
+            )
+        })
     }
 
     /// The cell moved by `v`.
@@ -187,6 +218,9 @@ mod tests {
 
     #[test]
     fn halton_base_two_and_three() {
+        assert_eq!(halton(0, 13), 0.0);
+        assert!((halton(1, 13) - 1.0 / 13.0).abs() < 1e-7);
+        assert_eq!(halton(5, 1), 0.0);
         assert_eq!(halton(1, 2), 0.5);
         assert_eq!(halton(3, 2), 0.75);
         assert!((halton(2, 3) - 2.0 / 3.0).abs() < 1e-6);

@@ -12,6 +12,12 @@
 //! from where that line leaves the cell. Sampling stops when a window of rays found too few new
 //! triangles, or at the ray caps.
 //!
+//! Options beyond stock GVS ([`Params`]): the thesis' "first" strategy (a batch of random rays
+//! before any ABS), and this project's neighbour probing (`probe`: slivers next to a found
+//! surface, seen from other corners of the cell), target sampling (`targets`: rays at groups of
+//! nearby triangles none of which was found, after random sampling) and silhouette re-seeding
+//! (`silhouette`).
+//!
 //! Runs are sequential and deterministic: the same scene, cell and [`Params`] give the same PVS.
 
 use std::collections::VecDeque;
@@ -21,7 +27,7 @@ use glam::Vec3;
 use serde::Serialize;
 use sightline_runtime::bvh::Bvh;
 
-use super::geom::{Cell, boundary_crossings, enlarge};
+use super::geom::{Cell, boundary_crossings, enlarge, halton};
 
 /// How ABS samples the edges of the enlarged outline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -55,6 +61,16 @@ pub struct Params {
     pub reverse: bool,
     /// Silhouette re-seeding (see `Gvs::reseed_silhouette`; not in the thesis). Default false.
     pub silhouette: bool,
+    /// Neighbour probing (see `Gvs::probe_neighbours`; not in the thesis). Default false.
+    pub probe: bool,
+    /// Target sampling (see `Gvs::sample_targets`; not in the thesis): rays per group of nearby
+    /// triangles without a PVS triangle, cast once random sampling has ended. 0 disables it.
+    /// Default 0.
+    pub targets: u32,
+    /// The thesis' "first" random-ray strategy: cast this many random rays before any ABS (their
+    /// new triangles queue up as seeds), then go on as usual. 0 is the stock "last" strategy
+    /// (random rays only when the queue is empty). Default 0.
+    pub first: u64,
     /// Cap on all rays. Default 10 M (the thesis' cap).
     pub max_rays: u64,
     /// Cap on random rays. Default 1 M.
@@ -80,6 +96,9 @@ impl Default for Params {
             disc: 0.05,
             reverse: true,
             silhouette: false,
+            probe: false,
+            targets: 0,
+            first: 0,
             max_rays: 10_000_000,
             max_random: 1_000_000,
             window: 25_000,
@@ -106,6 +125,10 @@ pub struct Stats {
     pub reuse: u64,
     /// Silhouette re-seeding rays.
     pub silhouette: u64,
+    /// Neighbour probing rays.
+    pub probe: u64,
+    /// Target sampling rays.
+    pub target: u64,
     /// Depth discontinuities detected.
     pub discontinuities: u64,
     /// Seeds processed by ABS.
@@ -165,6 +188,8 @@ pub(super) enum Class {
     Reverse,
     Reuse,
     Silhouette,
+    Probe,
+    Target,
 }
 
 /// No triangle: the ray escaped.
@@ -185,6 +210,14 @@ struct Seed {
     hit: Vec3,
 }
 
+/// `probe_state` bit: the triangle was probed as a neighbour.
+const PROBED: u8 = 1;
+/// `probe_state` bit: the triangle's neighbours were probed.
+const EXPANDED: u8 = 2;
+
+/// Largest group of target sampling (BVH subtrees of at most this many triangles).
+const TARGET_GROUP: usize = 64;
+
 /// Most steps of one edge-point walk before it gives up.
 const WALK_STEPS: u32 = 64;
 
@@ -198,6 +231,10 @@ pub(super) struct Gvs<'a> {
     in_pvs: Vec<u64>,
     /// Per triangle, the cell corners silhouette re-seeding has tried (bit k = corner k).
     tried: Vec<u8>,
+    /// Per triangle, neighbour probing state: [`PROBED`], [`EXPANDED`].
+    probe_state: Vec<u8>,
+    /// Scratch list of probe candidates.
+    candidates: Vec<u32>,
     pub(super) entries: Vec<Entry>,
     queue: VecDeque<Seed>,
     pub(super) stats: Stats,
@@ -215,12 +252,19 @@ impl<'a> Gvs<'a> {
             p,
             in_pvs: vec![0; tris.len().div_ceil(64)],
             tried: vec![0; tris.len()],
+            probe_state: vec![0; if p.probe { tris.len() } else { 0 }],
+            candidates: Vec::new(),
             entries: Vec::new(),
             queue: VecDeque::new(),
             stats: Stats::default(),
             window_start: 0,
             window_new: 0,
         }
+    }
+
+    /// True when `tri` is in the PVS.
+    fn has(&self, tri: u32) -> bool {
+        self.in_pvs.get(tri as usize / 64).is_some_and(|w| w & (1 << (tri % 64)) != 0)
     }
 
     /// Add `tri` to the PVS; returns false when it was there already.
@@ -252,6 +296,8 @@ impl<'a> Gvs<'a> {
             Class::Reverse => self.stats.reverse += 1,
             Class::Reuse => self.stats.reuse += 1,
             Class::Silhouette => self.stats.silhouette += 1,
+            Class::Probe => self.stats.probe += 1,
+            Class::Target => self.stats.target += 1,
         }
         match self.bvh.intersect(o, dir, f32::INFINITY) {
             Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t },
@@ -276,6 +322,37 @@ impl<'a> Gvs<'a> {
     /// Run until termination: drain the queue, then random rays, checking the window.
     pub(super) fn run(&mut self) {
         let mut halton_index = self.p.seed.max(1);
+        // "first": all the initial random rays before any ABS.
+        // They are cast in order of direction (a fixed, stable order): coherent rays traverse the
+        // BVH about twice as fast as scattered ones.
+        let first = self.p.first.min(self.p.max_random).min(self.p.max_rays);
+        if first > 0 {
+            let batch: Vec<(Vec3, Vec3)> =
+                (halton_index..halton_index + first).map(|i| self.cell.sample_ray(i)).collect();
+            halton_index += first;
+            // A counting sort on 16³ direction bins: stable, linear.
+            let bin = |d: Vec3| {
+                let q = |x: f32| ((x + 1.0) * 8.0).clamp(0.0, 15.0) as usize;
+                (q(d.z) << 8) | (q(d.y) << 4) | q(d.x)
+            };
+            let mut start = vec![0usize; 4097];
+            for (_, d) in &batch {
+                start[bin(*d) + 1] += 1;
+            }
+            for k in 1..start.len() {
+                start[k] += start[k - 1];
+            }
+            let mut order = vec![0u32; batch.len()];
+            for (i, (_, d)) in batch.iter().enumerate() {
+                let b = bin(*d);
+                order[start[b]] = i as u32;
+                start[b] += 1;
+            }
+            for i in order {
+                let (o, d) = batch[i as usize];
+                self.handle(o, d, Class::Random);
+            }
+        }
         loop {
             while let Some(seed) = self.queue.pop_front() {
                 if self.out_of_rays() {
@@ -297,6 +374,51 @@ impl<'a> Gvs<'a> {
             let (o, d) = self.cell.sample_ray(halton_index);
             halton_index += 1;
             self.handle(o, d, Class::Random);
+        }
+        if self.p.targets > 0 && !self.out_of_rays() {
+            self.sample_targets();
+            while let Some(seed) = self.queue.pop_front() {
+                if self.out_of_rays() {
+                    self.queue.clear();
+                    break;
+                }
+                self.abs(seed);
+            }
+        }
+    }
+
+    /// Target sampling (this project's extension, "target"): random rays rarely hit small
+    /// isolated objects far away (the thesis' Table 6 misses at the scene's periphery: neither
+    /// connected surfaces nor occluders, so ABS and reverse sampling never reach them). Once
+    /// random sampling has ended, every group of nearby triangles (a BVH subtree of at most
+    /// [`TARGET_GROUP`]) with no triangle in the PVS gets `targets` rays, each from a point of the
+    /// cell (Halton over the cell's volume) at the centre of one of its triangles (spread over
+    /// the group). What they hit joins the PVS and gets ABS as usual. The cost is bounded by the
+    /// number of groups, whatever their distance.
+    fn sample_targets(&mut self) {
+        let bvh = self.bvh;
+        let mut todo: Vec<u32> = Vec::new();
+        bvh.groups(TARGET_GROUP, |g| {
+            if !g.iter().any(|&t| self.has(t)) {
+                let k = self.p.targets as usize;
+                todo.extend((0..k.min(g.len())).filter_map(|j| g.get(j * g.len() / k.min(g.len()))));
+            }
+        });
+        for (i, &t) in todo.iter().enumerate() {
+            if self.out_of_rays() {
+                break;
+            }
+            let Some(tri) = self.tris.get(t as usize) else {
+                continue;
+            };
+            if self.has(t) {
+                continue;
+            }
+            let h = i as u64 + 1;
+            let f = Vec3::new(halton(h, 2), halton(h, 3), halton(h, 5));
+            let o = self.cell.min + (self.cell.max - self.cell.min) * f;
+            let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+            self.handle(o, centre - o, Class::Target);
         }
     }
 
@@ -323,6 +445,73 @@ impl<'a> Gvs<'a> {
                 EdgeMode::EdgePoint => self.walk_edge(o, pts[i], samples[i], pts[j], samples[j], seed.hit),
             }
         }
+        if self.p.probe {
+            self.probe_neighbours(seed.tri, tri);
+        }
+    }
+
+    /// Neighbour probing (this project's extension, "probe"): every triangle touching a PVS
+    /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
+    /// probed once, by a ray from the cell corner furthest in front of its plane and one from the
+    /// corner furthest behind it, each aimed at its centre. This finds the slivers next to a
+    /// surface's silhouette that only part of the cell sees (seen nearly edge-on, or from the
+    /// back from the seed's origin), which ABS from one origin misses. A probed triangle that is
+    /// hit joins the PVS and is queued from that corner, so ABS and probing continue from there.
+    pub(super) fn probe_neighbours(&mut self, t: u32, tri: &[Vec3; 3]) {
+        let Some(state) = self.probe_state.get_mut(t as usize) else {
+            return;
+        };
+        if *state & EXPANDED != 0 {
+            return;
+        }
+        *state |= EXPANDED;
+        let lo = tri[0].min(tri[1]).min(tri[2]);
+        let hi = tri[0].max(tri[1]).max(tri[2]);
+        // Touching boxes: a relative margin absorbs rounding of shared vertices.
+        let margin =
+            1e-4 * (hi - lo).max_element() + 4.0 * f32::EPSILON * lo.abs().max(hi.abs()).max_element();
+        let mut cand = std::mem::take(&mut self.candidates);
+        cand.clear();
+        self.bvh.overlapping(lo - margin, hi + margin, |u| cand.push(u));
+        for &u in &cand {
+            if self.has(u) || self.out_of_rays() {
+                continue;
+            }
+            let (Some(state), Some(ut)) = (self.probe_state.get_mut(u as usize), self.tris.get(u as usize))
+            else {
+                continue;
+            };
+            if *state & PROBED != 0 {
+                continue;
+            }
+            *state |= PROBED;
+            let n = (ut[1] - ut[0]).cross(ut[2] - ut[0]);
+            let centre = (ut[0] + ut[1] + ut[2]) / 3.0;
+            let corners = self.cell.corners();
+            let side = corners.map(|c| n.dot(c - ut[0]));
+            let (mut kmax, mut kmin) = (0, 0);
+            for k in 1..8 {
+                if side[k] > side[kmax] {
+                    kmax = k;
+                }
+                if side[k] < side[kmin] {
+                    kmin = k;
+                }
+            }
+            // In front: the corner furthest in front, then the cell's centre and the three corners
+            // next to the first (when in front too), until one sees it. Behind: one ray.
+            let centre_cell = self.cell.centre();
+            let front = [corners[kmax], centre_cell, corners[kmax ^ 1], corners[kmax ^ 2], corners[kmax ^ 4]];
+            for c in front.into_iter().chain(std::iter::once(corners[kmin])) {
+                let s = n.dot(c - ut[0]);
+                let behind = c == corners[kmin];
+                if (behind && s >= 0.0) || (!behind && s <= 0.0) || self.has(u) || self.out_of_rays() {
+                    continue;
+                }
+                self.handle(c, centre - c, Class::Probe);
+            }
+        }
+        self.candidates = cand;
     }
 
     /// Corner re-seeding (this project's extension, "sil"): an outline point whose ray escaped or

@@ -1,14 +1,20 @@
 //! Incremental PVS update when a view cell moves (thesis §5).
 //!
 //! Given the PVS of a cell with the ray that found each entry, the PVS of the cell moved by `v`:
-//! 1. re-cast every stored ray from its origin moved by `v` (clamped into the new cell) at its old
-//!    hit point: a ray that hits its old triangle again adds it to the "still visible" set (EPVS,
+//! 1. re-cast every stored ray at its old hit point from its old origin (clamped into the new
+//!    cell: unchanged where the two cells overlap) and, when that misses the old triangle, from
+//!    the old origin moved by `v` (clamped): a ray that hits its old triangle again adds it to the "still visible" set (EPVS,
 //!    added without ABS); a ray that hits anything else (a new triangle, or an old one now in front)
 //!    marks a change, and that triangle gets full ABS;
 //! 2. sample the newly exposed area (PVA) around each EPVS triangle: one ray just past the
 //!    triangle's boundary in the direction of `v` (the `edgepoint` ray), and the edges of the
-//!    triangle that face `v`, shifted outwards, walked with the edge-point walk;
-//! 3. resume ordinary GVS (random rays, ABS, reverse sampling) until the termination window.
+//!    triangle that face `v`, shifted outwards, walked with the edge-point walk; and, when
+//!    probing is on, its neighbours are probed (see `sampler`);
+//! 3. resume ordinary GVS (random rays, ABS, reverse sampling, and probing and target sampling
+//!    when the parameters enable them) until the termination window. The "first" batch of
+//!    random rays is kept: small objects newly visible through gaps are found by random rays
+//!    only, and without it the update's error was several times a fresh run's (measured on the
+//!    sphere scene: 13.9 against 1.6 wrong pixels per view).
 //!
 //! Like GVS itself the result is a sample: it differs from a fresh run on the moved cell by a
 //! sampling error of the same kind as two fresh runs with different Halton seeds (measured in the
@@ -31,8 +37,22 @@ pub fn update(tris: &[[Vec3; 3]], bvh: &Bvh, prev: &Pvs, v: Vec3, params: Params
     let mut g = Gvs::new(tris, bvh, cell, params);
     let mut still = Vec::new();
     for e in &prev.entries {
-        let o = cell.clamp(e.origin + v);
-        let s = g.cast(o, e.hit - o, Class::Reuse);
+        // The old ray where its origin is still in the new cell (the overlap of the two cells),
+        // else from the nearest point; when that misses its old triangle, the old origin moved
+        // by `v`.
+        let o = cell.clamp(e.origin);
+        let mut s = g.cast(o, e.hit - o, Class::Reuse);
+        let mut origin = o;
+        if s.tri != e.tri {
+            let o2 = cell.clamp(e.origin + v);
+            if o2 != o {
+                let s2 = g.cast(o2, e.hit - o2, Class::Reuse);
+                if s2.tri == e.tri {
+                    (s, origin) = (s2, o2);
+                }
+            }
+        }
+        let o = origin;
         if s.tri == u32::MAX || !g.insert(s.tri, o, s.pos) {
             continue;
         }
@@ -46,6 +66,12 @@ pub fn update(tris: &[[Vec3; 3]], bvh: &Bvh, prev: &Pvs, v: Vec3, params: Params
     }
     for (tri, o, hit) in still {
         pva_sampling(&mut g, tris, tri, o, hit, v);
+        // Slivers next to a still-visible surface that the new cell sees (no ABS ran on it).
+        if let Some(t) = tris.get(tri as usize)
+            && g.p.probe
+        {
+            g.probe_neighbours(tri, t);
+        }
     }
     g.run();
     g.stats.seconds = start.elapsed().as_secs_f64();
