@@ -137,28 +137,34 @@ fn walk_branches(
                 let (far_in, far_mask) = fr.classify(fc, fe, mask);
                 let (near_in, near_mask) = fr.classify(nc, ne, mask);
                 tests += 2 * u32::from(mask != 0);
-                if let Some(slot) = stack.get_mut(top) {
-                    *slot = (b.child[far], far_mask);
-                    top += usize::from(far_in);
-                }
-                if let Some(slot) = stack.get_mut(top) {
-                    *slot = (b.child[near], near_mask);
-                    top += usize::from(near_in);
-                }
+                push(stack, &mut top, (b.child[far], far_mask), far_in);
+                push(stack, &mut top, (b.child[near], near_mask), near_in);
             }
         } else {
             emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
         }
-        next = match top.checked_sub(1) {
-            Some(t) => {
-                top = t;
-                stack.get(t).copied()
-            }
-            None => None,
-        };
+        next = pop(stack, &mut top);
     }
     stats.nodes_visited = visited;
     stats.box_tests = tests;
+}
+
+/// Write `entry` at `top` and advance past it when `keep`: the write is unconditional, so the
+/// push does not branch (the stack has a spare slot).
+#[inline(always)]
+fn push(stack: &mut [(i32, u8)], top: &mut usize, entry: (i32, u8), keep: bool) {
+    if let Some(slot) = stack.get_mut(*top) {
+        *slot = entry;
+        *top += usize::from(keep);
+    }
+}
+
+/// The entry below `top`, if any.
+#[inline(always)]
+fn pop(stack: &[(i32, u8)], top: &mut usize) -> Option<(i32, u8)> {
+    let t = top.checked_sub(1)?;
+    *top = t;
+    stack.get(t).copied()
 }
 
 /// The walk over one mark set (see the module docs). Children are tested at their parent, so
@@ -204,25 +210,13 @@ fn walk_row(
                 let (near_in, near_mask) = fr.classify(node.center[near], node.extent[near], mask);
                 tests += u32::from(mask != 0) * (u32::from(far_marked) + u32::from(near_marked));
                 // Far first, so the near child is popped (and drawn) first.
-                if let Some(slot) = stack.get_mut(top) {
-                    *slot = (node.child[far], far_mask);
-                    top += usize::from(far_marked & far_in);
-                }
-                if let Some(slot) = stack.get_mut(top) {
-                    *slot = (node.child[near], near_mask);
-                    top += usize::from(near_marked & near_in);
-                }
+                push(stack, &mut top, (node.child[far], far_mask), far_marked & far_in);
+                push(stack, &mut top, (node.child[near], near_mask), near_marked & near_in);
             }
         } else {
             emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
         }
-        next = match top.checked_sub(1) {
-            Some(t) => {
-                top = t;
-                stack.get(t).copied()
-            }
-            None => None,
-        };
+        next = pop(stack, &mut top);
     }
     stats.nodes_visited = visited;
     stats.box_tests = tests;
