@@ -182,7 +182,7 @@ fn reference_visit(
 
 /// The plane-by-plane box test: `None` when outside a plane of `mask`, else the planes the box
 /// still crosses.
-fn scalar_box_test(fr: &Frustum, center: Vec3A, extent: Vec3A, mask: u8) -> Option<u8> {
+pub fn scalar_box_test(fr: &Frustum, center: Vec3A, extent: Vec3A, mask: u8) -> Option<u8> {
     let mut out = mask;
     for (i, (n, d)) in fr.planes().into_iter().enumerate() {
         if mask & (1 << i) == 0 {
