@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use glam::DVec3;
+use sightline_formats::rng::SplitMix64;
+
 use sightline::cmd::vis::Args;
 use sightline::validate::pvs::level_pvs;
 use sightline::validate::{Options, OracleChoice, load, validate};
@@ -153,6 +156,40 @@ fn pvs_is_no_looser_than_the_reference_on_every_shared_map() {
         checked += 1;
     }
     eprintln!("{checked} maps checked");
+}
+
+#[test]
+fn vis_survives_bent_and_broken_windings() {
+    // Parsed but geometrically hostile portal files: corners dragged off their plane or across
+    // the winding (non-convex), far away, or onto another corner. Vis must finish with a result
+    // or an error, never panic, and stay deterministic.
+    let Some(prt) = portal_file("lqdm1.prt") else { return };
+    let mut rng = SplitMix64::new(41);
+    for round in 0..24 {
+        let mut bad = prt.clone();
+        for _ in 0..1 + rng.below(6) {
+            let line = rng.below(bad.portals.len());
+            let pts = &mut bad.portals[line].winding.points;
+            let k = rng.below(pts.len());
+            let other = pts[rng.below(pts.len())];
+            let jolt =
+                DVec3::new(rng.range_f64(-1.0, 1.0), rng.range_f64(-1.0, 1.0), rng.range_f64(-1.0, 1.0));
+            pts[k] = match rng.below(4) {
+                0 => pts[k] + jolt * 0.5,
+                1 => pts[k] + jolt * 400.0,
+                2 => other,
+                _ => pts[k] * 1e5,
+            };
+        }
+        let opts = |threads| VisOptions { threads, ..VisOptions::default() };
+        let one = vis::run(&bad, &opts(1), &|_| {});
+        let two = vis::run(&bad, &opts(2), &|_| {});
+        match (one, two) {
+            (Ok(a), Ok(b)) => assert_eq!(leaf_rows(&a), leaf_rows(&b), "round {round}: thread counts differ"),
+            (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+            (a, b) => panic!("round {round}: {:?} vs {:?}", a.is_ok(), b.is_ok()),
+        }
+    }
 }
 
 /// Total visible leaf pairs stored in a BSP.
