@@ -7,7 +7,7 @@ map="${1:-maps/two_rooms.map}"
 name="$(basename "${map%.*}")"
 mkdir -p out
 cargo build --release --quiet -p sightline
-bin=target/release/sightline
+bin="${CARGO_TARGET_DIR:-target}/release/sightline"
 echo "== compile $map"
 "$bin" compile "$map" -o "out/$name.slvl"
 echo "== validate out/$name.slvl"
