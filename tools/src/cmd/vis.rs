@@ -40,7 +40,7 @@ pub struct Args {
     /// Worker threads (0: every core). The result is the same for any count.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Checkpoint file: resumed from when present, written every `--checkpoint-secs`.
+    /// Checkpoint file: resumed from when present, written every `--checkpoint-secs` and on Ctrl-C.
     #[arg(long)]
     pub state: Option<PathBuf>,
     /// Seconds between checkpoints.
