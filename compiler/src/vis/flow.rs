@@ -139,10 +139,26 @@ impl Flow {
         self.chains += 1;
         let words = self.words;
         self.frame(d + 1);
+        let leaf = self.frames[d].leaf as usize;
+        // Without a target worth testing (one still possibly visible that leads to an unseen
+        // cluster or beyond which something unseen might lie) the branch ends here, before the
+        // frame's separators are built. The loop below applies the same tests.
+        let here = &self.frames[d];
+        let (lo, hi) = (here.lo, here.hi);
+        let worth = g.cluster_portals[leaf].iter().any(|&pi| {
+            let pi = pi as usize;
+            if !(lo..hi).contains(&(pi >> 6)) || !bits::get(&here.might, pi) {
+                return false;
+            }
+            !bits::get(&self.seen, g.portals[pi].leaf as usize)
+                || (lo..hi).any(|w| here.might[w] & test[pi * words + w] & !self.vis[w] != 0)
+        });
+        if !worth {
+            return;
+        }
         if d > 0 && self.level > 0 && !self.cull_beyond_beam(g, d, head) {
             return;
         }
-        let leaf = self.frames[d].leaf as usize;
         for &pi in &g.cluster_portals[leaf] {
             let pi = pi as usize;
             let here = &self.frames[d];
