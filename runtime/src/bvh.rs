@@ -2,8 +2,9 @@
 //!
 //! A binary BVH built top-down with a binned surface-area heuristic (16 bins per axis, leaves of at
 //! most [`MAX_LEAF`] triangles), stored as a flat array of 32-byte nodes (the two children of an
-//! interior node are adjacent), and traversed over 64-byte child pairs (both children's boxes in
-//! SIMD lanes, tested at once) with a small explicit stack, near child first.
+//! interior node are adjacent) for the build, `groups` and `overlapping`; rays traverse the tree
+//! collapsed to 4-wide nodes (four children's boxes in SIMD lanes, tested at once) with a small
+//! explicit stack, entered children nearest first.
 //!
 //! # Conventions
 //! - Rays are `origin + t * dir` with `dir` not necessarily normalised; `t` is in units of `dir`.
@@ -18,7 +19,7 @@
 //! - Results are deterministic: among hits at exactly equal `t` the one found first in the fixed
 //!   traversal order wins.
 
-use glam::{Vec3, Vec3A, Vec4, Vec4Swizzles};
+use glam::{Vec3, Vec3A, Vec4};
 
 /// Most triangles in one leaf.
 pub const MAX_LEAF: usize = 4;
@@ -28,6 +29,12 @@ const BINS: usize = 16;
 const TRAVERSAL_COST: f32 = 0.6;
 /// Deepest tree the traversal stack holds; the build makes a (large) leaf rather than go deeper.
 const STACK: usize = 96;
+/// Traversal stack of the 4-wide tree for trees whose deepest path needs at most this many entries
+/// (nearly all: a smaller stack is faster to set up per ray).
+const STACK_SMALL: usize = 40;
+/// Traversal stack of any 4-wide tree: it is no deeper than the binary tree, and a quad pushes at
+/// most three children.
+const STACK_DEEP: usize = 3 * STACK;
 
 /// A ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,26 +83,92 @@ impl Node {
     }
 }
 
-/// What traversal needs of the two children of an interior node, in one 64-byte cache line: their
-/// boxes, one axis per vector with lanes `[left min, right min, left max, right max]` (one SIMD
-/// slab test covers both children), and each child's `first` and `count` (as in [`BuildNode`]).
-/// The pair of the children at `l, l + 1` (`l` is always odd: the root is alone at 0) is
-/// `pairs[(l - 1) / 2]`; traversal reads only pairs (and the root node).
+/// What traversal needs of up to four children of a node of the 4-wide traversal tree (the binary
+/// tree collapsed: a node's children are replaced by theirs, largest surface area first, until it
+/// has four), in two 64-byte cache lines. Boxes are stored one plane per vector with one lane per
+/// child, so one SIMD slab test covers all four; unused lanes hold the empty box (min +∞, max −∞),
+/// which no ray enters. A child is a quad (`count == 0`, `first` is its index in `quads`) or a
+/// leaf (`first`/`count` as in [`BuildNode`]).
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
-struct Pair {
-    x: Vec4,
-    y: Vec4,
-    z: Vec4,
-    /// `[left first, left count, right first, right count]`.
-    kids: [u32; 4],
+struct Quad {
+    /// `[min x, max x, min y, max y, min z, max z]`, lane `i` for child `i`.
+    planes: [Vec4; 6],
+    first: [u32; 4],
+    count: [u32; 4],
 }
 
-impl Pair {
-    fn of(l: &Node, r: &Node) -> Pair {
-        let axis = |k: usize| Vec4::new(l.lo[k], r.lo[k], l.hi[k], r.hi[k]);
-        Pair { x: axis(0), y: axis(1), z: axis(2), kids: [l.first(), l.count(), r.first(), r.count()] }
+impl Quad {
+    const EMPTY: Quad = Quad {
+        planes: [
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+        ],
+        first: [0; 4],
+        count: [0; 4],
+    };
+}
+
+/// Collapse the binary tree into [`Quad`]s (root quad first; empty when the root is a leaf), and
+/// the most traversal stack entries a ray can need (a quad pushes all its children but one).
+fn collapse(nodes: &[Node]) -> (Vec<Quad>, usize) {
+    let half_area = |n: &Node| {
+        let d = (n.hi - n.lo).truncate().max(Vec3::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    };
+    let mut quads = Vec::new();
+    // A leaf root, or the empty tree (a root without triangles or children).
+    if nodes.len() < 3 || nodes[0].count() > 0 {
+        return (quads, 0);
     }
+    quads.push(Quad::EMPTY);
+    // Per quad: the most entries on the stack when a ray enters it.
+    let mut stack_need = vec![0usize];
+    let mut need = 0;
+    let mut work = vec![(0usize, 0usize)];
+    while let Some((bi, qi)) = work.pop() {
+        let f = nodes[bi].first() as usize;
+        let mut kids = [f, f + 1, 0, 0];
+        let mut n = 2;
+        while n < 4 {
+            // The interior child with the largest box (the first of equals) opens.
+            let mut open: Option<(usize, f32)> = None;
+            for (i, &k) in kids[..n].iter().enumerate() {
+                if nodes[k].count() == 0 && open.is_none_or(|(_, a)| half_area(&nodes[k]) > a) {
+                    open = Some((i, half_area(&nodes[k])));
+                }
+            }
+            let Some((i, _)) = open else { break };
+            let g = nodes[kids[i]].first() as usize;
+            kids.copy_within(i + 1..n, i + 2);
+            kids[i] = g;
+            kids[i + 1] = g + 1;
+            n += 1;
+        }
+        let mut q = Quad::EMPTY;
+        for (lane, &k) in kids[..n].iter().enumerate() {
+            let node = &nodes[k];
+            for axis in 0..3 {
+                q.planes[2 * axis][lane] = node.lo[axis];
+                q.planes[2 * axis + 1][lane] = node.hi[axis];
+            }
+            if node.count() > 0 {
+                (q.first[lane], q.count[lane]) = (node.first(), node.count());
+            } else {
+                q.first[lane] = quads.len() as u32;
+                work.push((k, quads.len()));
+                quads.push(Quad::EMPTY);
+                stack_need.push(stack_need[qi] + n - 1);
+            }
+        }
+        need = need.max(stack_need[qi] + n - 1);
+        quads[qi] = q;
+    }
+    (quads, need)
 }
 
 /// A triangle's corners, exactly as given (watertightness needs shared corners bit-identical).
@@ -138,8 +211,10 @@ impl Ray {
 #[derive(Debug, Clone)]
 pub struct Bvh {
     nodes: Vec<Node>,
-    /// Children boxes of the interior nodes, see [`Pair`].
-    pairs: Vec<Pair>,
+    /// The 4-wide traversal tree, see [`Quad`].
+    quads: Vec<Quad>,
+    /// True when a ray may need more than [`STACK_SMALL`] stack entries.
+    deep: bool,
     tris: Vec<Prepared>,
     ids: Vec<u32>,
 }
@@ -227,7 +302,7 @@ impl Bvh {
             work.push((left, depth + 1));
         }
         let ids: Vec<u32> = perm.iter().map(|&k| order[k as usize]).collect();
-        let tris = ids
+        let tris: Vec<Prepared> = ids
             .iter()
             .map(|&id| {
                 let [a, b, c] = triangles[id as usize];
@@ -235,9 +310,8 @@ impl Bvh {
             })
             .collect();
         let nodes: Vec<Node> = nodes.iter().map(Node::pack).collect();
-        let pairs =
-            nodes.get(1..).unwrap_or_default().chunks_exact(2).map(|c| Pair::of(&c[0], &c[1])).collect();
-        Bvh { nodes, pairs, tris, ids }
+        let (quads, need) = collapse(&nodes);
+        Bvh { nodes, quads, deep: need > STACK_SMALL, tris, ids }
     }
 
     /// Number of triangles the tree holds (non-finite input triangles are left out).
@@ -341,31 +415,45 @@ impl Bvh {
         }
         let ray = Ray::new(origin, dir);
         // One traversal per dominant axis, so that the triangle test indexes by constants.
-        match ray.kz {
-            0 => self.walk::<ANY, 0>(&ray, dir, t_max),
-            1 => self.walk::<ANY, 1>(&ray, dir, t_max),
-            _ => self.walk::<ANY, 2>(&ray, dir, t_max),
+        // and one per stack size.
+        match (ray.kz, self.deep) {
+            (0, false) => self.walk::<ANY, 0, STACK_SMALL>(&ray, dir, t_max),
+            (1, false) => self.walk::<ANY, 1, STACK_SMALL>(&ray, dir, t_max),
+            (_, false) => self.walk::<ANY, 2, STACK_SMALL>(&ray, dir, t_max),
+            (0, true) => self.walk::<ANY, 0, STACK_DEEP>(&ray, dir, t_max),
+            (1, true) => self.walk::<ANY, 1, STACK_DEEP>(&ray, dir, t_max),
+            (_, true) => self.walk::<ANY, 2, STACK_DEEP>(&ray, dir, t_max),
         }
     }
 
-    fn walk<const ANY: bool, const KZ: usize>(&self, ray: &Ray, dir: Vec3, t_max: f32) -> Option<Hit> {
+    fn walk<const ANY: bool, const KZ: usize, const N: usize>(
+        &self,
+        ray: &Ray,
+        dir: Vec3,
+        t_max: f32,
+    ) -> Option<Hit> {
         let origin = ray.origin;
-        // Zero direction components become the smallest normal float (of the same sign), so that
-        // slab distances are never 0 × ∞ = NaN.
-        let safe = |d: f32| if d == 0.0 { f32::MIN_POSITIVE.copysign(d) } else { d };
+        // Direction components smaller than the smallest normal float become it (same sign), so
+        // that `inv` is finite and non-zero: slab distances are never 0 × ∞ = NaN, and the near
+        // plane of a box is its min plane on an axis where `inv > 0`, its max plane otherwise.
+        let safe = |d: f32| if d.abs() < f32::MIN_POSITIVE { f32::MIN_POSITIVE.copysign(d) } else { d };
         let inv = Vec3A::new(safe(dir.x), safe(dir.y), safe(dir.z)).recip();
-        let (o4, inv4) = (
-            [Vec4::splat(origin.x), Vec4::splat(origin.y), Vec4::splat(origin.z)],
-            [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
-        );
         let o = Vec3A::from(origin);
+        let (ox, oy, oz) = (Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z));
+        let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
+        let side = |i: f32, axis: usize| 2 * axis + usize::from(i < 0.0);
+        let (nx, ny, nz) = (side(inv.x, 0), side(inv.y, 1), side(inv.z, 2));
+        let (fx, fy, fz) = (nx ^ 1, ny ^ 1, nz ^ 1);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
-        // Stack of (first, count, entry distance) of nodes still to visit.
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        // Stack of (first, count, entry distance) of children still to visit.
+        let mut stack = [(0u32, 0u32, 0f32); N];
         let mut sp = 0usize;
         box_hit(&self.nodes[0], o, inv, t_best)?;
-        let (mut first, mut count) = (self.nodes[0].first(), self.nodes[0].count());
+        // The root: a leaf, or quad 0.
+        // The root: a leaf, or quad 0.
+        let (mut first, mut count) =
+            (if self.nodes[0].count() > 0 { self.nodes[0].first() } else { 0 }, self.nodes[0].count());
         loop {
             if count > 0 {
                 let first = first as usize;
@@ -379,34 +467,44 @@ impl Bvh {
                     }
                 }
             } else {
-                let pair = &self.pairs[(first as usize - 1) / 2];
-                let (near, far) = pair_hit(pair, &o4, &inv4, t_best);
-                let k = pair.kids;
-                match (near.x <= far.x, near.y <= far.y) {
-                    (true, true) => {
-                        let (a, b) = (near.x, near.y);
-                        let (n, f) =
-                            if a <= b { ((k[0], k[1]), (k[2], k[3])) } else { ((k[2], k[3]), (k[0], k[1])) };
-                        // The build keeps the tree shallower than the stack.
-                        if sp < STACK {
-                            stack[sp] = (f.0, f.1, a.max(b));
+                let q = &self.quads[first as usize];
+                let p = &q.planes;
+                let near = ((p[nx] - ox) * ix).max((p[ny] - oy) * iy).max((p[nz] - oz) * iz).max(Vec4::ZERO);
+                // Widened by a few ulps so that boxes never cull a hit the watertight test reports.
+                let far = ((p[fx] - ox) * ix)
+                    .min((p[fy] - oy) * iy)
+                    .min((p[fz] - oz) * iz)
+                    .min(Vec4::splat(t_best))
+                    * (1.0 + 4.0 * f32::EPSILON);
+                let mask = near.cmple(far).bitmask();
+                if mask != 0 {
+                    let d: [f32; 4] = near.into();
+                    // Entered children nearest first (lane order among equal distances).
+                    let mut lanes = [0usize; 4];
+                    let mut n = 0;
+                    for i in 0..4 {
+                        if mask & (1 << i) != 0 {
+                            let mut j = n;
+                            while j > 0 && d[lanes[j - 1]] > d[i] {
+                                lanes[j] = lanes[j - 1];
+                                j -= 1;
+                            }
+                            lanes[j] = i;
+                            n += 1;
+                        }
+                    }
+                    for &i in lanes[1..n].iter().rev() {
+                        // `N` is at least the tree's need (`collapse`).
+                        if sp < N {
+                            stack[sp] = (q.first[i], q.count[i], d[i]);
                             sp += 1;
                         }
-                        (first, count) = n;
-                        continue;
                     }
-                    (true, false) => {
-                        (first, count) = (k[0], k[1]);
-                        continue;
-                    }
-                    (false, true) => {
-                        (first, count) = (k[2], k[3]);
-                        continue;
-                    }
-                    (false, false) => {}
+                    (first, count) = (q.first[lanes[0]], q.count[lanes[0]]);
+                    continue;
                 }
             }
-            // Pop, skipping nodes that the current best hit already rules out.
+            // Pop, skipping children that the current best hit already rules out.
             loop {
                 if sp == 0 {
                     return best;
@@ -512,20 +610,6 @@ fn box_hit(node: &Node, origin: Vec3A, inv: Vec3A, t_max: f32) -> Option<f32> {
     // Widened by a few ulps so that boxes never cull a hit the watertight test would report.
     let tfar = t0.max(t1).min_element().min(t_max) * (1.0 + 4.0 * f32::EPSILON);
     (tnear <= tfar).then_some(tnear)
-}
-
-/// Entry and exit distances (lanes 0 and 1: left and right child) of the ray into both children
-/// boxes of a [`Pair`], the same arithmetic as [`box_hit`] lane by lane; a child is entered when
-/// its entry is not after its exit.
-#[inline(always)]
-fn pair_hit(p: &Pair, o: &[Vec4; 3], inv: &[Vec4; 3], t_max: f32) -> (Vec4, Vec4) {
-    let tx = (p.x - o[0]) * inv[0];
-    let ty = (p.y - o[1]) * inv[1];
-    let tz = (p.z - o[2]) * inv[2];
-    let (sx, sy, sz) = (tx.zwxy(), ty.zwxy(), tz.zwxy());
-    let near = tx.min(sx).max(ty.min(sy)).max(tz.min(sz)).max(Vec4::ZERO);
-    let far = tx.max(sx).min(ty.max(sy)).min(tz.max(sz)).min(Vec4::splat(t_max)) * (1.0 + 4.0 * f32::EPSILON);
-    (near, far)
 }
 
 /// Watertight ray/triangle test (Woop, Benthin and Wald 2013): `(t, u, v)` when the ray hits the
@@ -713,13 +797,87 @@ mod tests {
                 let d = Vec3::new(dx, dy, dz);
                 let a = bvh.intersect(o, d, 1e30);
                 let b = intersect_brute(&tris, o, d, 1e30);
-                match (a, b) {
-                    (Some(a), Some(b)) => prop_assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0)),
-                    (None, None) => {}
-                    (a, b) => prop_assert!(false, "bvh {a:?} brute {b:?}"),
-                }
+                prop_assert!(same_hit(&tris, o, d, a, b), "bvh {a:?} brute {b:?}");
                 prop_assert_eq!(bvh.occluded(o, d, 1e30), b.is_some());
             }
         }
+    }
+
+    /// The tree's hit is the brute-force hit exactly (`t`, triangle, `u`, `v`), or a different
+    /// triangle hit at exactly the same `t` (a tie, which the traversal order decides).
+    fn same_hit(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, a: Option<Hit>, b: Option<Hit>) -> bool {
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) if a.t.to_bits() == b.t.to_bits() => {
+                a == b
+                    || intersect_brute(&tris[a.triangle as usize..=a.triangle as usize], o, d, 1e30)
+                        .is_some_and(|h| h.t.to_bits() == a.t.to_bits() && h.u == a.u && h.v == a.v)
+            }
+            _ => false,
+        }
+    }
+
+    /// Random closed spheres (shared edges) scattered in a box, rays from inside and outside in
+    /// every direction, some with a finite `t_max`.
+    #[test]
+    fn sphere_cloud_hits_equal_brute_force() {
+        let mut rng = unit_rng(7);
+        let mut tris = Vec::new();
+        for _ in 0..60 {
+            let c = Vec3::new(rng(), rng(), rng()) * 40.0 - 20.0;
+            let r = 0.5 + 2.0 * rng();
+            let (nu, nv) = (10, 6);
+            let p = |i: usize, j: usize| {
+                let (a, b) = (
+                    i as f32 * std::f32::consts::TAU / nu as f32,
+                    j as f32 * std::f32::consts::PI / nv as f32,
+                );
+                c + r * Vec3::new(a.cos() * b.sin(), a.sin() * b.sin(), b.cos())
+            };
+            for i in 0..nu {
+                for j in 0..nv {
+                    let (a, b, cc, dd) = (p(i, j), p((i + 1) % nu, j), p((i + 1) % nu, j + 1), p(i, j + 1));
+                    tris.push([a, b, cc]);
+                    tris.push([a, cc, dd]);
+                }
+            }
+        }
+        let bvh = Bvh::build(&tris);
+        for k in 0..3000 {
+            let o = Vec3::new(rng(), rng(), rng()) * 50.0 - 25.0;
+            let d = Vec3::new(rng(), rng(), rng()) * 2.0 - 1.0;
+            let t_max = if k % 3 == 0 { 20.0 * rng() } else { 1e30 };
+            let (a, b) = (bvh.intersect(o, d, t_max), intersect_brute(&tris, o, d, t_max));
+            assert!(same_hit(&tris, o, d, a, b), "ray {k}: bvh {a:?} brute {b:?}");
+            assert_eq!(bvh.occluded(o, d, t_max), b.is_some(), "ray {k}");
+        }
+    }
+
+    /// Triangles nested in each other at halving sizes make a binary tree as deep as the
+    /// triangles are many, so the 4-wide traversal needs the deep stack; it still finds every hit.
+    #[test]
+    fn deep_tree_uses_the_deep_stack_and_agrees_with_brute_force() {
+        let tris: Vec<[Vec3; 3]> = (0..70)
+            .map(|k| {
+                let s = 0.5f32.powi(k);
+                [Vec3::new(s, 0.0, 0.0), Vec3::new(s, s, 0.0), Vec3::new(s, 0.0, s)]
+            })
+            .collect();
+        let bvh = Bvh::build(&tris);
+        assert!(bvh.deep, "expected a tree needing more than {STACK_SMALL} stack entries");
+        let mut rng = unit_rng(3);
+        for k in 0..2000 {
+            let s = 0.5f32.powi(k % 70);
+            let o = Vec3::new(-1.0, s * rng() * 0.5, s * rng() * 0.5);
+            let d = Vec3::new(1.0, 0.01 * (rng() - 0.5), 0.01 * (rng() - 0.5));
+            let (a, b) = (bvh.intersect(o, d, 1e30), intersect_brute(&tris, o, d, 1e30));
+            assert!(same_hit(&tris, o, d, a, b), "ray {k}: bvh {a:?} brute {b:?}");
+        }
+    }
+
+    /// Floats in `[0, 1)` from a seeded [`SplitMix64`](sightline_formats::rng::SplitMix64).
+    fn unit_rng(seed: u64) -> impl FnMut() -> f32 {
+        let mut r = sightline_formats::rng::SplitMix64::new(seed);
+        move || r.unit_f32()
     }
 }
