@@ -187,7 +187,7 @@ fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<V
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
     let report = |p: VisProgress| {
-        if quiet || (p.done % 32 != 0 && p.done != p.total) {
+        if quiet || (!p.done.is_multiple_of(32) && p.done != p.total) {
             return;
         }
         let bar = if p.phase == VisPhase::Base { &base } else { &flow };
