@@ -38,7 +38,7 @@ mod symmetry;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -357,55 +357,169 @@ fn flow_all(
     // Every pair of rows ends up as the AND of all values either held, so applying this after
     // loading checkpointed rows gives the same rows as the uninterrupted run.
     symmetry::tighten_all(&mut test, words, n);
-    let counter = AtomicUsize::new(done);
-    let mut last_save = Instant::now();
-    // One flow state per worker thread, reused across batches.
-    let flows: Vec<Mutex<flow::Flow>> = (0..rayon::current_num_threads().max(1))
-        .map(|_| Mutex::new(flow::Flow::new(words, g.num_clusters(), opts.level)))
-        .collect();
-    while done < n {
-        let batch = &order[done..(done + FLOW_BATCH).min(n)];
-        // One portal per task, so idle threads steal single portals and a batch ends evenly.
-        let rows: Vec<(Vec<u64>, u64)> = batch
-            .par_iter()
-            .with_max_len(1)
-            .map(|&p| {
-                let slot = rayon::current_thread_index().unwrap_or(0) % flows.len();
-                let mut f = flows[slot].lock().unwrap_or_else(PoisonError::into_inner);
-                let mut out = vec![0u64; words];
-                f.chains = 0;
-                f.run(g, &test, p, &mut out);
-                let d = counter.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(VisProgress { phase: VisPhase::Flow, done: d, total: n });
-                (out, f.chains)
-            })
-            .collect();
-        for (&p, (row, chains)) in batch.iter().zip(rows) {
-            symmetry::replace_row(&mut test, words, p, &row);
-            stats.chains += chains;
-        }
-        done += batch.len();
-        let cancelled = opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
-        let stop = (opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
-        if let Some(path) = &opts.state
-            && (stop || (done < n && last_save.elapsed() >= opts.checkpoint_interval))
-        {
-            let rows: Vec<u64> = order[..done]
-                .iter()
-                .flat_map(|&p| test[p * words..(p + 1) * words].iter().copied())
-                .collect();
-            state::save(path, &state::State::new(hash, n, words, done, rows, stats.chains))?;
-            last_save = Instant::now();
-        }
-        if stop {
-            return Err(VisError::Interrupted { done, total: n });
-        }
-    }
+    let run = Run { g, order: &order, words, n, hash, opts, progress };
+    let test = run.batches(test, done, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
     }
     Ok(test)
+}
+
+/// What the flow workers share for one run of [`flow_all`].
+struct Run<'a> {
+    g: &'a graph::Graph,
+    order: &'a [usize],
+    words: usize,
+    n: usize,
+    hash: u64,
+    opts: &'a VisOptions,
+    progress: &'a (dyn Fn(VisProgress) + Sync),
+}
+
+/// The batch in flight and what its last finisher needs.
+struct Cursor {
+    /// Next position in `order` to hand out.
+    next: AtomicUsize,
+    /// Portals of the open batch finished.
+    finished: AtomicUsize,
+    /// Positions before this one may start (the end of the open batch).
+    ready: AtomicUsize,
+    /// Set when the run stops early (interrupted or failed).
+    halt: AtomicBool,
+    /// Flow portals finished, for progress.
+    counter: AtomicUsize,
+}
+
+/// Bookkeeping done at batch boundaries by the worker that finishes a batch.
+struct Boundary<'s> {
+    stats: &'s mut VisStats,
+    last_save: Instant,
+    outcome: Option<VisError>,
+}
+
+impl Run<'_> {
+    /// Positions `done..n` of `order` in batches of [`FLOW_BATCH`] (counted from `done`): a
+    /// portal starts once every earlier batch is folded into `test`, and reads `test` only then.
+    /// Workers are plain threads that take portals from a shared cursor and wait for the next
+    /// batch by spinning: small maps have many short batches, and waking sleeping threads per
+    /// batch cost more than the batches. Returns the final rows, or why the run stopped.
+    fn batches(&self, test: Vec<u64>, done: usize, stats: &mut VisStats) -> Result<Vec<u64>, VisError> {
+        let threads = rayon::current_num_threads().max(1);
+        let test = RwLock::new(test);
+        let slots: Vec<Mutex<(Vec<u64>, u64)>> =
+            (0..FLOW_BATCH).map(|_| Mutex::new((Vec::new(), 0))).collect();
+        let cursor = Cursor {
+            next: AtomicUsize::new(done),
+            finished: AtomicUsize::new(0),
+            ready: AtomicUsize::new((done + FLOW_BATCH).min(self.n)),
+            halt: AtomicBool::new(false),
+            counter: AtomicUsize::new(done),
+        };
+        let boundary = Mutex::new(Boundary { stats, last_save: Instant::now(), outcome: None });
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| self.worker(done, &test, &slots, &cursor, &boundary));
+            }
+        });
+        let boundary = boundary.into_inner().unwrap_or_else(PoisonError::into_inner);
+        match boundary.outcome {
+            Some(e) => Err(e),
+            None => Ok(test.into_inner().unwrap_or_else(PoisonError::into_inner)),
+        }
+    }
+
+    fn worker(
+        &self,
+        start: usize,
+        test: &RwLock<Vec<u64>>,
+        slots: &[Mutex<(Vec<u64>, u64)>],
+        cursor: &Cursor,
+        boundary: &Mutex<Boundary<'_>>,
+    ) {
+        let mut f = flow::Flow::new(self.words, self.g.num_clusters(), self.opts.level);
+        loop {
+            let i = cursor.next.fetch_add(1, Ordering::AcqRel);
+            if i >= self.n {
+                return;
+            }
+            let mut spins = 0u32;
+            while i >= cursor.ready.load(Ordering::Acquire) {
+                if cursor.halt.load(Ordering::Acquire) {
+                    return;
+                }
+                spins = spins.saturating_add(1);
+                match spins {
+                    0..64 => std::hint::spin_loop(),
+                    64..4096 => std::thread::yield_now(),
+                    _ => std::thread::sleep(Duration::from_micros(20)),
+                }
+            }
+            if cursor.halt.load(Ordering::Acquire) {
+                return;
+            }
+            let mut out = vec![0u64; self.words];
+            f.chains = 0;
+            {
+                let rows = test.read().unwrap_or_else(PoisonError::into_inner);
+                f.run(self.g, &rows, self.order[i], &mut out);
+            }
+            let batch_start = start + (i - start) / FLOW_BATCH * FLOW_BATCH;
+            let batch_end = (batch_start + FLOW_BATCH).min(self.n);
+            *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) = (out, f.chains);
+            let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
+            (self.progress)(VisProgress { phase: VisPhase::Flow, done: d, total: self.n });
+            if cursor.finished.fetch_add(1, Ordering::AcqRel) + 1 == batch_end - batch_start {
+                self.close_batch(batch_start, batch_end, test, slots, cursor, boundary);
+            }
+        }
+    }
+
+    /// Fold a finished batch into `test`, checkpoint and check for a stop, then open the next.
+    fn close_batch(
+        &self,
+        batch_start: usize,
+        batch_end: usize,
+        test: &RwLock<Vec<u64>>,
+        slots: &[Mutex<(Vec<u64>, u64)>],
+        cursor: &Cursor,
+        boundary: &Mutex<Boundary<'_>>,
+    ) {
+        let (n, words) = (self.n, self.words);
+        let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut rows = test.write().unwrap_or_else(PoisonError::into_inner);
+        for (pos, &p) in self.order[batch_start..batch_end].iter().enumerate() {
+            let slot = slots[pos].lock().unwrap_or_else(PoisonError::into_inner);
+            symmetry::replace_row(&mut rows, words, p, &slot.0);
+            b.stats.chains += slot.1;
+        }
+        let done = batch_end;
+        let cancelled = self.opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+        let stop = (self.opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
+        if let Some(path) = &self.opts.state
+            && (stop || (done < n && b.last_save.elapsed() >= self.opts.checkpoint_interval))
+        {
+            let finished: Vec<u64> = self.order[..done]
+                .iter()
+                .flat_map(|&p| rows[p * words..(p + 1) * words].iter().copied())
+                .collect();
+            let saved =
+                state::save(path, &state::State::new(self.hash, n, words, done, finished, b.stats.chains));
+            b.last_save = Instant::now();
+            if let Err(e) = saved {
+                b.outcome = Some(e);
+                cursor.halt.store(true, Ordering::Release);
+                return;
+            }
+        }
+        if stop {
+            b.outcome = Some(VisError::Interrupted { done, total: n });
+            cursor.halt.store(true, Ordering::Release);
+            return;
+        }
+        cursor.finished.store(0, Ordering::Release);
+        cursor.ready.store((done + FLOW_BATCH).min(n), Ordering::Release);
+    }
 }
 
 /// Cluster rows from portal rows: a cluster sees itself, every cluster its portals lead to, and
