@@ -3,20 +3,12 @@
 //! from `$SIGHTLINE_MAPS` (default `../shared/maps`); without them nothing is measured.
 
 use std::hint::black_box;
-use std::path::PathBuf;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 
-fn maps() -> Option<PathBuf> {
-    let dir = std::env::var_os("SIGHTLINE_MAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"));
-    dir.is_dir().then_some(dir)
-}
-
 fn bench_compile(c: &mut Criterion) {
-    let Some(dir) = maps() else {
+    let Some(dir) = sightline_formats::shared_maps::dir() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); compile benchmarks skipped");
         return;
     };

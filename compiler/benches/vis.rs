@@ -35,10 +35,7 @@ const ANCHORS: [(&str, f64, f64, f64, f64, f64); 12] = [
 ];
 
 fn maps_dir() -> PathBuf {
-    std::env::var_os("SIGHTLINE_MAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"))
-        .join("ericw")
+    sightline_formats::shared_maps::dir().unwrap_or_default().join("ericw")
 }
 
 /// User + system CPU seconds of this process, from `/proc/self/stat` (clock ticks of 1/100 s).

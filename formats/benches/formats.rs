@@ -5,14 +5,6 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sightline_formats::{bsp, rle, slvl};
 use std::hint::black_box;
-use std::path::PathBuf;
-
-fn maps() -> Option<PathBuf> {
-    let dir = std::env::var_os("SIGHTLINE_MAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"));
-    dir.is_dir().then_some(dir)
-}
 
 fn rows(c: &mut Criterion) {
     // A sparse 1,344-leaf row (E1M1's size), about 12 % of leaves visible.
@@ -36,7 +28,7 @@ fn rows(c: &mut Criterion) {
 }
 
 fn files(c: &mut Criterion) {
-    let Some(dir) = maps() else {
+    let Some(dir) = sightline_formats::shared_maps::dir() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); BSP and .slvl benchmarks skipped");
         return;
     };

@@ -5,17 +5,9 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sightline_formats::map;
 use std::hint::black_box;
-use std::path::PathBuf;
-
-fn maps() -> Option<PathBuf> {
-    let dir = std::env::var_os("SIGHTLINE_MAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"));
-    dir.is_dir().then_some(dir)
-}
 
 fn parse(c: &mut Criterion) {
-    let Some(dir) = maps() else {
+    let Some(dir) = sightline_formats::shared_maps::dir() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); .map benchmarks skipped");
         return;
     };

@@ -15,6 +15,7 @@ pub mod obj;
 pub mod prt;
 pub mod rle;
 pub mod rng;
+pub mod shared_maps;
 pub mod slvl;
 #[cfg(test)]
 mod test_support;

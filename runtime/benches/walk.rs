@@ -7,9 +7,7 @@ use sightline_runtime::backend;
 use sightline_runtime::{Scratch, Visible, World, load, poses, synth};
 
 fn world() -> (String, World) {
-    let dir = std::env::var_os("SIGHTLINE_MAPS")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/maps"));
+    let dir = sightline_formats::shared_maps::dir().unwrap_or_default();
     let path = dir.join("ericw/e1m1_nodetail.vis.bsp");
     match load::load_path(&path) {
         Ok(world) => ("e1m1".to_string(), world),

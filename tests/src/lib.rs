@@ -16,18 +16,11 @@ pub fn bundled_maps() -> PathBuf {
 /// `None`, after printing why, when the folder is absent, so a test can skip its real-map part
 /// visibly rather than silently.
 pub fn shared_maps() -> Option<PathBuf> {
-    let dir = std::env::var_os("SIGHTLINE_MAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace_root().join("../shared/maps"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "note: real maps not found at {} (set SIGHTLINE_MAPS); real-map checks are not run",
-            dir.display()
-        );
-        None
+    let dir = sightline_formats::shared_maps::dir();
+    if dir.is_none() {
+        eprintln!("note: real maps not found (set SIGHTLINE_MAPS); real-map checks are not run");
     }
+    dir
 }
 
 /// The file `rel` (for example `ericw/e1m1.prt`) under [`shared_maps`], or `None`, after printing
