@@ -27,24 +27,12 @@ fn damaged_slvl_files_fail_or_answer() {
     assert!(load::load_slvl(&bases[0]).is_ok() && load::load_slvl(&bases[1]).is_ok());
     let gvs = sightline_runtime::backend::by_name("gvs").expect("gvs backend");
     assert!(gvs.supports(&load::load_slvl(&bases[0]).expect("loads")));
+    // Counts and offsets live in the header and the lump directory.
+    let header = slvl::HEADER_BYTES + slvl::LumpKind::ALL.len() * slvl::DIR_ENTRY_BYTES;
     let mut rng = SplitMix64::new(2024);
     let (mut rejected, mut loaded) = (0, 0);
     for i in 0..6000 {
-        let mut bytes = bases[i % 2].clone();
-        match rng.below(3) {
-            0 => bytes.truncate(rng.below(bytes.len())),
-            1 => {
-                for _ in 0..1 + rng.below(4) {
-                    let at = rng.below(bytes.len());
-                    bytes[at] ^= 1 << rng.below(8);
-                }
-            }
-            _ => {
-                let at = rng.below(bytes.len().saturating_sub(4));
-                let word: u32 = [0, u32::MAX, 0x7fff_ffff, 1 << 20, rng.next_u64() as u32][rng.below(5)];
-                bytes[at..at + 4].copy_from_slice(&word.to_le_bytes());
-            }
-        }
+        let bytes = sightline_tests::mutate(&mut rng, &bases[i % 2], header);
         match load::load_bytes(&bytes) {
             Err(e) => {
                 assert!(!e.to_string().is_empty());
