@@ -147,7 +147,7 @@ impl Flow {
         let (lo, hi) = (here.lo, here.hi);
         let worth = g.cluster_portals[leaf].iter().any(|&pi| {
             let pi = pi as usize;
-            if !(lo..hi).contains(&(pi >> 6)) || !bits::get(&here.might, pi) {
+            if !here.may_see(pi) {
                 return false;
             }
             !bits::get(&self.seen, g.portals[pi].leaf as usize)
@@ -161,8 +161,7 @@ impl Flow {
         }
         for &pi in &g.cluster_portals[leaf] {
             let pi = pi as usize;
-            let here = &self.frames[d];
-            if !(here.lo..here.hi).contains(&(pi >> 6)) || !bits::get(&here.might, pi) {
+            if !self.frames[d].may_see(pi) {
                 continue;
             }
             let p = &g.portals[pi];
@@ -191,13 +190,9 @@ impl Flow {
             if !deeper && bits::get(&self.seen, p.leaf as usize) {
                 continue;
             }
-            if prev.narrow {
-                prev.narrow = false;
-                if !narrow_source(self.level, g.convex, lo, head, &mut self.tmp) {
-                    return;
-                }
-            }
-            let prev = &mut lo[d];
+            // Tests 3 and 4 already narrowed `prev.source` in `cull_beyond_beam`: a frame gets
+            // here only with a target worth testing, so with something new in `might`.
+            debug_assert!(!prev.narrow);
             let Some(prev_plane) = prev.plane else { continue };
             if p.plane.normal.dot(prev_plane.normal) <= -1.0 + OPPOSITE_EPSILON {
                 continue; // straight back out through the way in
@@ -287,6 +282,12 @@ impl Flow {
 }
 
 impl Frame {
+    /// Portal `pi` is still in `might`.
+    #[inline]
+    fn may_see(&self, pi: usize) -> bool {
+        (self.lo..self.hi).contains(&(pi >> 6)) && bits::get(&self.might, pi)
+    }
+
     /// Compute the separators of (`source`, `pass`) unless cached.
     fn ensure_separators(&mut self, level: u8, convex: bool) {
         if self.seps_ready {
