@@ -18,6 +18,11 @@
 //!   from `r` through `s` runs backwards from `s ^ 1` through `r ^ 1`; so `s` is cleared from row
 //!   `r` whenever row `s ^ 1` lacks `r ^ 1` ([`symmetry`]), before the flow and after every batch.
 //!   Rows stay supersets of the truth and later flows narrow by them.
+//! - **Known sight lines prune**: a flow that reaches a new cluster checks the line between the
+//!   middles of its clipped source and target against the chain's windings ([`certify`]); when
+//!   it passes, the clusters on it see each other for sure, and later flows from those clusters
+//!   start with them marked seen (saved in checkpoints with the rows). On E1M2 this cuts the
+//!   chains by a quarter.
 //! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
 //!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
 //! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
@@ -30,6 +35,7 @@
 
 mod base;
 mod bits;
+mod certify;
 mod flow;
 mod graph;
 mod poly;
@@ -342,15 +348,18 @@ fn flow_all(
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
     let mut test = might.to_vec();
+    let nc = g.num_clusters();
+    let mut seeds = vec![0u64; nc * bits::words(nc)];
     let hash = input_hash(prt, opts);
     let mut done = 0usize;
     if let Some(path) = &opts.state
-        && let Some(st) = state::load(path, hash, n, words)?
+        && let Some(st) = state::load(path, hash, n, words, seeds.len())?
     {
         done = st.done as usize;
         for (k, &p) in order[..done].iter().enumerate() {
             test[p * words..(p + 1) * words].copy_from_slice(&st.rows[k * words..(k + 1) * words]);
         }
+        seeds = st.seeds;
         stats.chains = st.chains;
         stats.resumed_portals = done;
     }
@@ -358,12 +367,21 @@ fn flow_all(
     // loading checkpointed rows gives the same rows as the uninterrupted run.
     symmetry::tighten_all(&mut test, words, n);
     let run = Run { g, order: &order, words, n, hash, opts, progress };
-    let test = run.batches(test, done, stats)?;
+    let test = run.batches(Rows { test, seeds }, done, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
     }
     Ok(test)
+}
+
+/// What flows read and batch boundaries write.
+struct Rows {
+    /// Per portal its final row once its batch is folded, else its `mightsee`.
+    test: Vec<u64>,
+    /// Per cluster, the clusters known visible from it by a certified line ([`certify`]), in
+    /// words of the cluster count.
+    seeds: Vec<u64>,
 }
 
 /// What the flow workers share for one run of [`flow_all`].
@@ -391,6 +409,14 @@ struct Cursor {
     counter: AtomicUsize,
 }
 
+/// A finished flow waiting for its batch to close.
+#[derive(Default)]
+struct Slot {
+    row: Vec<u64>,
+    chains: u64,
+    certified: Vec<(u32, u32)>,
+}
+
 /// Bookkeeping done at batch boundaries by the worker that finishes a batch.
 struct Boundary<'s> {
     stats: &'s mut VisStats,
@@ -404,11 +430,10 @@ impl Run<'_> {
     /// Workers are plain threads that take portals from a shared cursor and wait for the next
     /// batch by spinning: small maps have many short batches, and waking sleeping threads per
     /// batch cost more than the batches. Returns the final rows, or why the run stopped.
-    fn batches(&self, test: Vec<u64>, done: usize, stats: &mut VisStats) -> Result<Vec<u64>, VisError> {
+    fn batches(&self, rows: Rows, done: usize, stats: &mut VisStats) -> Result<Vec<u64>, VisError> {
         let threads = rayon::current_num_threads().max(1);
-        let test = RwLock::new(test);
-        let slots: Vec<Mutex<(Vec<u64>, u64)>> =
-            (0..FLOW_BATCH).map(|_| Mutex::new((Vec::new(), 0))).collect();
+        let test = RwLock::new(rows);
+        let slots: Vec<Mutex<Slot>> = (0..FLOW_BATCH).map(|_| Mutex::new(Slot::default())).collect();
         let cursor = Cursor {
             next: AtomicUsize::new(done),
             finished: AtomicUsize::new(0),
@@ -425,15 +450,15 @@ impl Run<'_> {
         let boundary = boundary.into_inner().unwrap_or_else(PoisonError::into_inner);
         match boundary.outcome {
             Some(e) => Err(e),
-            None => Ok(test.into_inner().unwrap_or_else(PoisonError::into_inner)),
+            None => Ok(test.into_inner().unwrap_or_else(PoisonError::into_inner).test),
         }
     }
 
     fn worker(
         &self,
         start: usize,
-        test: &RwLock<Vec<u64>>,
-        slots: &[Mutex<(Vec<u64>, u64)>],
+        test: &RwLock<Rows>,
+        slots: &[Mutex<Slot>],
         cursor: &Cursor,
         boundary: &Mutex<Boundary<'_>>,
     ) {
@@ -462,11 +487,15 @@ impl Run<'_> {
             f.chains = 0;
             {
                 let rows = test.read().unwrap_or_else(PoisonError::into_inner);
-                f.run(self.g, &rows, self.order[i], &mut out);
+                let p = self.order[i];
+                let cw = bits::words(self.g.num_clusters());
+                let c = self.g.portals[p].owner as usize;
+                f.run(self.g, &rows.test, &rows.seeds[c * cw..(c + 1) * cw], p, &mut out);
             }
             let batch_start = start + (i - start) / FLOW_BATCH * FLOW_BATCH;
             let batch_end = (batch_start + FLOW_BATCH).min(self.n);
-            *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) = (out, f.chains);
+            *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
+                Slot { row: out, chains: f.chains, certified: std::mem::take(&mut f.certified) };
             let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
             (self.progress)(VisProgress { phase: VisPhase::Flow, done: d, total: self.n });
             if cursor.finished.fetch_add(1, Ordering::AcqRel) + 1 == batch_end - batch_start {
@@ -480,18 +509,23 @@ impl Run<'_> {
         &self,
         batch_start: usize,
         batch_end: usize,
-        test: &RwLock<Vec<u64>>,
-        slots: &[Mutex<(Vec<u64>, u64)>],
+        test: &RwLock<Rows>,
+        slots: &[Mutex<Slot>],
         cursor: &Cursor,
         boundary: &Mutex<Boundary<'_>>,
     ) {
         let (n, words) = (self.n, self.words);
         let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
         let mut rows = test.write().unwrap_or_else(PoisonError::into_inner);
+        let cw = bits::words(self.g.num_clusters());
+        let Rows { test: rows, seeds } = &mut *rows;
         for (pos, &p) in self.order[batch_start..batch_end].iter().enumerate() {
             let slot = slots[pos].lock().unwrap_or_else(PoisonError::into_inner);
-            symmetry::replace_row(&mut rows, words, p, &slot.0);
-            b.stats.chains += slot.1;
+            symmetry::replace_row(rows, words, p, &slot.row);
+            for &(from, to) in &slot.certified {
+                bits::set(&mut seeds[from as usize * cw..(from as usize + 1) * cw], to as usize);
+            }
+            b.stats.chains += slot.chains;
         }
         let done = batch_end;
         let cancelled = self.opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
@@ -503,8 +537,8 @@ impl Run<'_> {
                 .iter()
                 .flat_map(|&p| rows[p * words..(p + 1) * words].iter().copied())
                 .collect();
-            let saved =
-                state::save(path, &state::State::new(self.hash, n, words, done, finished, b.stats.chains));
+            let st = state::State::new(self.hash, n, words, done, finished, seeds.clone(), b.stats.chains);
+            let saved = state::save(path, &st);
             b.last_save = Instant::now();
             if let Err(e) = saved {
                 b.outcome = Some(e);

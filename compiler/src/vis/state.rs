@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::VisError;
 
 /// Identifies the state format.
-const MAGIC: u64 = 0x534c_5649_5353_5431; // "SLVISST1"
+const MAGIC: u64 = 0x534c_5649_5353_5432; // "SLVISST2"
 
 /// A checkpoint: the first `done` portals of the processing order are finished.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -31,6 +31,8 @@ pub struct State {
     pub done: u64,
     /// Their final rows, `words` each, in processing order.
     pub rows: Vec<u64>,
+    /// Seeds: per cluster, the clusters known visible from it by a certified line.
+    pub seeds: Vec<u64>,
     /// Portal chains visited so far.
     pub chains: u64,
 }
@@ -43,6 +45,7 @@ impl State {
         words: usize,
         done: usize,
         rows: Vec<u64>,
+        seeds: Vec<u64>,
         chains: u64,
     ) -> Self {
         Self {
@@ -52,6 +55,7 @@ impl State {
             words: words as u64,
             done: done as u64,
             rows,
+            seeds,
             chains,
         }
     }
@@ -102,7 +106,14 @@ fn decode(bytes: &[u8]) -> Result<State, String> {
 }
 
 /// Load a state if the file exists; refuse one from another input, other options or a corrupt file.
-pub fn load(path: &Path, input_hash: u64, portals: usize, words: usize) -> Result<Option<State>, VisError> {
+/// `seeds` is the length the seed matrix must have.
+pub fn load(
+    path: &Path,
+    input_hash: u64,
+    portals: usize,
+    words: usize,
+    seeds: usize,
+) -> Result<Option<State>, VisError> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -119,7 +130,10 @@ pub fn load(path: &Path, input_hash: u64, portals: usize, words: usize) -> Resul
             path.display()
         )));
     }
-    if state.done > state.portals || state.rows.len() as u64 != state.done * state.words {
+    if state.done > state.portals
+        || state.rows.len() as u64 != state.done * state.words
+        || state.seeds.len() != seeds
+    {
         return Err(VisError::State(format!("{}: inconsistent vis state", path.display())));
     }
     Ok(Some(state))
@@ -134,20 +148,23 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("sightline-vis-state-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let path = dir.join("s.state");
-        let st = State::new(42, 10, 1, 2, vec![5, 7], 99);
+        let st = State::new(42, 10, 1, 2, vec![5, 7], vec![1; 10], 99);
         save(&path, &st).expect("save");
-        assert_eq!(load(&path, 42, 10, 1).expect("load"), Some(st));
-        assert!(load(&path, 43, 10, 1).is_err());
+        assert_eq!(load(&path, 42, 10, 1, 10).expect("load"), Some(st));
+        // Seeds sized for another cluster count are refused.
+        assert!(load(&path, 42, 10, 1, 11).is_err());
+        assert!(load(&path, 43, 10, 1, 10).is_err());
         std::fs::write(&path, [1u8, 2, 3]).expect("write");
-        assert!(load(&path, 42, 10, 1).is_err());
+        assert!(load(&path, 42, 10, 1, 10).is_err());
         // A huge claimed length in a tiny file is refused, not allocated.
         let mut bytes =
-            bincode::serde::encode_to_vec(State::new(42, 10, 1, 2, vec![5, 7], 99), config()).expect("enc");
+            bincode::serde::encode_to_vec(State::new(42, 10, 1, 2, vec![5, 7], vec![1; 10], 99), config())
+                .expect("enc");
         let len_at = 8 * 5;
         bytes[len_at..len_at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
         std::fs::write(&path, &bytes).expect("write");
-        assert!(load(&path, 42, 10, 1).is_err());
-        assert_eq!(load(&dir.join("absent"), 42, 10, 1).expect("absent"), None);
+        assert!(load(&path, 42, 10, 1, 10).is_err());
+        assert_eq!(load(&dir.join("absent"), 42, 10, 1, 10).expect("absent"), None);
         std::fs::remove_dir_all(&dir).expect("cleanup");
     }
 }
