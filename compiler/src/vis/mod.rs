@@ -350,7 +350,8 @@ fn flow_all(
     let mut test = might.to_vec();
     let nc = g.num_clusters();
     let mut seeds = vec![0u64; nc * bits::words(nc)];
-    let hash = input_hash(prt, opts);
+    // Only checkpoints need the input's identity (hashing prints the whole portal file).
+    let hash = if opts.state.is_some() { input_hash(prt, opts) } else { 0 };
     let mut done = 0usize;
     if let Some(path) = &opts.state
         && let Some(st) = state::load(path, hash, n, words, seeds.len())?
