@@ -80,14 +80,17 @@ pub struct Flow {
     level: u8,
     /// Recursive calls made (portal chains visited).
     pub chains: u64,
+    /// Look for certified sight lines (for seeds).
+    seeding: bool,
     /// Seeds found by the last run: (cluster, cluster) pairs joined by a certified line (see
     /// [`super::certify`]), the first seeing the second.
     pub certified: Vec<(u32, u32)>,
 }
 
 impl Flow {
-    /// State for rows of `words` words and separator `level` 0..=4.
-    pub fn new(words: usize, clusters: usize, level: u8) -> Self {
+    /// State for rows of `words` words and separator `level` 0..=4; `seeding` looks for
+    /// certified sight lines.
+    pub fn new(words: usize, clusters: usize, level: u8, seeding: bool) -> Self {
         Self {
             frames: Vec::new(),
             tmp: Poly::default(),
@@ -96,6 +99,7 @@ impl Flow {
             words,
             level,
             chains: 0,
+            seeding,
             certified: Vec::new(),
         }
     }
@@ -252,7 +256,9 @@ impl Flow {
             }
             if !bits::get(&self.seen, p.leaf as usize) {
                 self.see(g, p.leaf);
-                self.certify(g, d + 1);
+                if self.seeding {
+                    self.certify(g, d + 1);
+                }
             }
             if deeper {
                 self.recurse(g, test, d + 1, head);

@@ -63,6 +63,10 @@ pub struct VisOptions {
     pub fast: bool,
     /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
     pub level: u8,
+    /// Seed flows with clusters known visible by certified sight lines ([`certify`]; on by
+    /// default). Off, every flow finds everything itself: more work, and the PVS the seeds
+    /// would leave except for the few pairs they keep through the beam cull's order dependence.
+    pub seeds: bool,
     /// Worker threads; 0 uses every core.
     pub threads: usize,
     /// Checkpoint file: loaded when present (resume), written every `checkpoint_interval`.
@@ -82,6 +86,7 @@ impl Default for VisOptions {
         Self {
             fast: false,
             level: 4,
+            seeds: true,
             threads: 0,
             state: None,
             checkpoint_interval: Duration::from_secs(180),
@@ -288,7 +293,7 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 fn input_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
     let text = sightline_formats::prt::write(prt);
     let h = state::fnv1a(text.as_bytes(), state::FNV_OFFSET);
-    state::fnv1a(&[opts.level, FLOW_BATCH as u8], h)
+    state::fnv1a(&[opts.level, FLOW_BATCH as u8, u8::from(opts.seeds)], h)
 }
 
 fn run_in_pool(
@@ -463,7 +468,7 @@ impl Run<'_> {
         cursor: &Cursor,
         boundary: &Mutex<Boundary<'_>>,
     ) {
-        let mut f = flow::Flow::new(self.words, self.g.num_clusters(), self.opts.level);
+        let mut f = flow::Flow::new(self.words, self.g.num_clusters(), self.opts.level, self.opts.seeds);
         loop {
             let i = cursor.next.fetch_add(1, Ordering::AcqRel);
             if i >= self.n {

@@ -108,6 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         checkpoint_interval: std::time::Duration::from_secs(args.checkpoint_secs.max(1)),
         stop_after: args.stop_after,
         cancel: Some(ctrl_c_flag()),
+        ..VisOptions::default()
     };
     let result = compute(&prt, &opts, args.json)?;
     let t1 = Instant::now();
