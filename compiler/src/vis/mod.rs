@@ -351,7 +351,7 @@ fn flow_all(
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
+    order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
     let mut test = might.to_vec();
     let nc = g.num_clusters();
     let mut seeds = vec![0u64; nc * bits::words(nc)];
