@@ -52,6 +52,25 @@ fn bench(c: &mut Criterion) {
     });
     g.finish();
 
+    // Among the spheres most GVS rays escape through the whole cloud: the cost is traversal of many
+    // sparse boxes, unlike the city's streets.
+    let spheres = scenegen::spheres(1000, false, 1);
+    let (lo, hi) = spheres.cells[0];
+    let cell = Cell::new(lo, hi);
+    let bvh_s = Bvh::build(&spheres.triangles);
+    let surface: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| cell.sample_ray(i)).collect();
+    let mut g = c.benchmark_group("bvh spheres:1000");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(RAYS as u64));
+    g.bench_function("intersect cell-surface rays", |b| {
+        b.iter(|| {
+            black_box(
+                surface.iter().filter(|&&(o, d)| bvh_s.intersect(o, d, f32::INFINITY).is_some()).count(),
+            )
+        })
+    });
+    g.finish();
+
     let mut g = c.benchmark_group("gvs");
     g.sample_size(10);
     for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette, Variant::ProbeFirstTarget] {
