@@ -236,9 +236,18 @@ pub enum CompileError {
     /// The map leaks (and leaks were not allowed).
     #[error("{0}")]
     Leak(Box<LeakReport>),
-    /// Vis failed.
+    /// Vis failed, or stopped on request ([`vis::VisError::Interrupted`]: with a state file, the
+    /// same compile resumes from it).
     #[error("vis: {0}")]
-    Vis(String),
+    Vis(#[from] vis::VisError),
+    /// Vis returned rows for another number of clusters than the level has.
+    #[error("vis returned {got} clusters for {want}")]
+    VisClusters {
+        /// Clusters in the vis result.
+        got: usize,
+        /// Clusters in the level.
+        want: usize,
+    },
     /// The worker pool could not start.
     #[error("could not start {threads} worker threads: {message}")]
     Threads {
@@ -479,14 +488,12 @@ fn compile_here(
         if let Some(t) = opts.threads {
             vis_opts.threads = t.max(1);
         }
-        let result = vis::run(&out.prt, &vis_opts, &|p| bridge.report(p))
-            .map_err(|e| CompileError::Vis(e.to_string()))?;
+        let result = vis::run(&out.prt, &vis_opts, &|p| bridge.report(p))?;
         if result.num_clusters() != level.num_clusters as usize {
-            return Err(CompileError::Vis(format!(
-                "vis returned {} clusters for {}",
-                result.num_clusters(),
-                level.num_clusters
-            )));
+            return Err(CompileError::VisClusters {
+                got: result.num_clusters(),
+                want: level.num_clusters as usize,
+            });
         }
         store_pvs(&mut level, &result);
         vis_stats = Some(result.stats.clone());

@@ -19,6 +19,11 @@ fn args(input: &Path, output: &Path) -> Args {
         output: Some(output.to_path_buf()),
         threads: None,
         no_vis: true,
+        fast: false,
+        level: 4,
+        state: None,
+        checkpoint_secs: 180,
+        stop_after: None,
         allow_leak: false,
         json: true,
     }
@@ -241,4 +246,52 @@ fn brush_entities_become_submodels_and_hints_split_first() {
     assert_eq!((plane.normal, plane.dist), ([1.0, 0.0, 0.0], 144.0), "the hint plane splits first");
     // The door is not part of the world: the world has one open region split only by the hint.
     assert_eq!(out.stats.vis_leaves, 2);
+}
+
+#[test]
+fn interrupted_compile_resumes_from_its_vis_state_to_the_same_level() {
+    let dir = temp_dir("resume");
+    let input = sightline_tests::bundled_maps().join("stairs_pillars.map");
+    let whole = dir.join("whole.slvl");
+    let mut a = args(&input, &whole);
+    a.no_vis = false;
+    a.threads = Some(2);
+    assert_eq!(run(&a).expect("compiles"), Outcome::Clean);
+
+    let resumed = dir.join("resumed.slvl");
+    let state = dir.join("vis.state");
+    let mut b = args(&input, &resumed);
+    b.no_vis = false;
+    b.threads = Some(2);
+    b.state = Some(state.clone());
+    b.stop_after = Some(1);
+    let err = run(&b).expect_err("stops after the first batch of flow portals");
+    assert!(err.to_string().contains("run again with the same --state to resume"), "{err}");
+    assert!(state.is_file(), "the state is saved");
+    assert!(!resumed.exists(), "nothing is written for an interrupted compile");
+
+    // The library reports the portals it took from the state.
+    let text = std::fs::read_to_string(&input).expect("map");
+    let map = sightline_formats::map::parse(&text, "stairs_pillars.map").expect("parses");
+    let opts = CompileOptions {
+        threads: Some(2),
+        allow_leak: false,
+        vis: Some(sightline_compiler::vis::VisOptions { state: Some(state.clone()), ..Default::default() }),
+    };
+    let out = compile(&Source::Map { map, file: "stairs_pillars.map".into() }, &opts, &NoProgress)
+        .expect("resumes");
+    let vis = out.vis.expect("vis ran");
+    assert!(vis.resumed_portals > 0 && vis.resumed_portals < 2 * vis.portals, "{vis:?}");
+    assert!(!state.exists(), "a finished run removes its state");
+
+    b.stop_after = None;
+    b.state = Some(dir.join("fresh.state"));
+    assert_eq!(run(&b).expect("compiles"), Outcome::Clean);
+    assert_eq!(std::fs::read(&resumed).expect("level"), std::fs::read(&whole).expect("level"));
+    assert_eq!(
+        sightline_formats::slvl::read(&std::fs::read(&whole).expect("level")).expect("reads").pvs_data,
+        out.level.pvs_data,
+        "the resumed PVS equals the uninterrupted one"
+    );
+    std::fs::remove_dir_all(&dir).expect("clean up");
 }

@@ -117,7 +117,7 @@ pub struct VisProgress {
 }
 
 /// What went wrong.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum VisError {
     /// The portal file is inconsistent.
     #[error("invalid portal file: {0}")]

@@ -162,9 +162,20 @@ fn read_prt(path: &Path, beside_bsp: bool) -> anyhow::Result<PortalFile> {
     Ok(prt::read(&text, &path.display().to_string())?)
 }
 
+/// What to tell the user when vis stopped on request after `done` of `total` flow portals.
+pub(crate) fn interrupted(done: usize, total: usize, opts: &VisOptions) -> String {
+    if opts.state.is_some() {
+        format!("stopped after {done} of {total} portals; run again with the same --state to resume")
+    } else {
+        format!(
+            "stopped after {done} of {total} portals; nothing was saved (give --state FILE to make a run resumable)"
+        )
+    }
+}
+
 /// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. If a handler
 /// cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
-fn ctrl_c_flag() -> Arc<AtomicBool> {
+pub(crate) fn ctrl_c_flag() -> Arc<AtomicBool> {
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
@@ -200,14 +211,7 @@ fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<V
     flow.finish_and_clear();
     match result {
         Ok(r) => Ok(r),
-        Err(vis::VisError::Interrupted { done, total }) if opts.state.is_some() => {
-            bail!("stopped after {done} of {total} portals; run again with the same --state to resume")
-        }
-        Err(vis::VisError::Interrupted { done, total }) => {
-            bail!(
-                "stopped after {done} of {total} portals; nothing was saved (give --state FILE to make a run resumable)"
-            )
-        }
+        Err(vis::VisError::Interrupted { done, total }) => bail!(interrupted(done, total, opts)),
         Err(e) => Err(e.into()),
     }
 }
