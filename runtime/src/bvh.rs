@@ -478,34 +478,29 @@ impl Bvh {
                     * (1.0 + 4.0 * f32::EPSILON);
                 let mask = near.cmple(far).bitmask();
                 if mask != 0 {
-                    // Entered children nearest first, without data-dependent branches: each key is
-                    // the entry distance's bits (non-negative, so they order like the floats) with
-                    // the lane in the two low bits (equal keys: lane order), missed lanes last.
-                    // The key read back as a float is at most the entry distance, so the pop test
-                    // below never skips a child it should visit.
                     let d: [f32; 4] = near.into();
-                    let mut k: [u32; 4] = std::array::from_fn(|i| {
+                    // Entered children nearest first (lane order among equal distances).
+                    let mut lanes = [0usize; 4];
+                    let mut n = 0;
+                    for i in 0..4 {
                         if mask & (1 << i) != 0 {
-                            (d[i].to_bits() & 0x7FFF_FFFC) | i as u32
-                        } else {
-                            u32::MAX
+                            let mut j = n;
+                            while j > 0 && d[lanes[j - 1]] > d[i] {
+                                lanes[j] = lanes[j - 1];
+                                j -= 1;
+                            }
+                            lanes[j] = i;
+                            n += 1;
                         }
-                    });
-                    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-                        let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
-                        (k[a], k[b]) = (lo, hi);
                     }
-                    let n = mask.count_ones() as usize;
-                    for &key in k[1..n].iter().rev() {
-                        let i = (key & 3) as usize;
+                    for &i in lanes[1..n].iter().rev() {
                         // `N` is at least the tree's need (`collapse`).
                         if sp < N {
-                            stack[sp] = (q.first[i], q.count[i], f32::from_bits(key & !3));
+                            stack[sp] = (q.first[i], q.count[i], d[i]);
                             sp += 1;
                         }
                     }
-                    let i = (k[0] & 3) as usize;
-                    (first, count) = (q.first[i], q.count[i]);
+                    (first, count) = (q.first[lanes[0]], q.count[lanes[0]]);
                     continue;
                 }
             }
