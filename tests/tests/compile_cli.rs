@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use sightline::cli::Outcome;
 use sightline::cmd::compile::{Args, run};
+use sightline::cmd::vis::VisFlags;
 use sightline_compiler::{CompileError, CompileOptions, NoProgress, Source, compile};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -19,11 +20,7 @@ fn args(input: &Path, output: &Path) -> Args {
         output: Some(output.to_path_buf()),
         threads: None,
         no_vis: true,
-        fast: false,
-        level: 4,
-        state: None,
-        checkpoint_secs: 180,
-        stop_after: None,
+        vis: VisFlags::default(),
         allow_leak: false,
         json: true,
     }
@@ -263,8 +260,8 @@ fn interrupted_compile_resumes_from_its_vis_state_to_the_same_level() {
     let mut b = args(&input, &resumed);
     b.no_vis = false;
     b.threads = Some(2);
-    b.state = Some(state.clone());
-    b.stop_after = Some(1);
+    b.vis.state = Some(state.clone());
+    b.vis.stop_after = Some(1);
     let err = run(&b).expect_err("stops after the first batch of flow portals");
     assert!(err.to_string().contains("run again with the same --state to resume"), "{err}");
     assert!(state.is_file(), "the state is saved");
@@ -284,8 +281,8 @@ fn interrupted_compile_resumes_from_its_vis_state_to_the_same_level() {
     assert!(vis.resumed_portals > 0 && vis.resumed_portals < 2 * vis.portals, "{vis:?}");
     assert!(!state.exists(), "a finished run removes its state");
 
-    b.stop_after = None;
-    b.state = Some(dir.join("fresh.state"));
+    b.vis.stop_after = None;
+    b.vis.state = Some(dir.join("fresh.state"));
     assert_eq!(run(&b).expect("compiles"), Outcome::Clean);
     assert_eq!(std::fs::read(&resumed).expect("level"), std::fs::read(&whole).expect("level"));
     assert_eq!(

@@ -241,12 +241,8 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     let original = std::fs::read(&bsp_path).unwrap();
     let args = Args {
         input: bsp_path.clone(),
-        fast: false,
-        level: 4,
         threads: 2,
-        state: None,
-        checkpoint_secs: 180,
-        stop_after: None,
+        vis: sightline::cmd::vis::VisFlags::default(),
         json: true,
     };
     sightline::cmd::vis::run(&args).unwrap();

@@ -11,11 +11,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use anyhow::Context;
 use indicatif::ProgressBar;
 use sightline_compiler::mesh::Mesh;
-use sightline_compiler::vis::{VisError, VisOptions};
+use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Progress, Source, compile};
 use sightline_formats::atomic::write_file_atomic;
 
 use crate::cli::Outcome;
+use crate::cmd::vis::VisFlags;
 
 /// Arguments of `sightline compile`.
 #[derive(Debug, clap::Args)]
@@ -32,22 +33,10 @@ pub struct Args {
     /// Stop after portals: the level has no PVS.
     #[arg(long)]
     pub no_vis: bool,
-    /// Vis: base vis only (like the reference `-fast`): fast and loose.
-    #[arg(long)]
-    pub fast: bool,
-    /// Vis: separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
-    pub level: u8,
-    /// Vis checkpoint file: resumed from when present, written every `--checkpoint-secs` and on
-    /// Ctrl-C. Running the same compile again resumes (the map compiles to the same portals).
-    #[arg(long)]
-    pub state: Option<PathBuf>,
-    /// Seconds between vis checkpoints.
-    #[arg(long, default_value_t = 180)]
-    pub checkpoint_secs: u64,
-    /// Stop vis after this many flow portals (after writing the state): for testing resumes.
-    #[arg(long, hide = true)]
-    pub stop_after: Option<usize>,
+    /// Vis options (`--state`: the same compile run again resumes vis, since the map compiles to
+    /// the same portals).
+    #[command(flatten)]
+    pub vis: VisFlags,
     /// Write the level even when the map leaks (no outside fill, no vis); still exits 1.
     #[arg(long)]
     pub allow_leak: bool,
@@ -145,15 +134,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let opts = CompileOptions {
         threads: args.threads,
         allow_leak: args.allow_leak,
-        vis: (!args.no_vis).then(|| VisOptions {
-            fast: args.fast,
-            level: args.level,
-            state: args.state.clone(),
-            checkpoint_interval: std::time::Duration::from_secs(args.checkpoint_secs.max(1)),
-            stop_after: args.stop_after,
-            cancel: Some(crate::cmd::vis::ctrl_c_flag()),
-            ..VisOptions::default()
-        }),
+        vis: (!args.no_vis).then(|| args.vis.options()),
     };
     let bars = Bars { quiet: args.json, bar: Mutex::new(None), pending: AtomicU64::new(0) };
     let compiled = match compile(&source, &opts, &bars) {

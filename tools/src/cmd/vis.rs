@@ -31,16 +31,28 @@ use crate::cli::Outcome;
 pub struct Args {
     /// A Quake `.bsp` (its `.prt` must sit beside it) or a `.prt` file.
     pub input: PathBuf,
+    /// Worker threads (0: every core). The result is the same for any count.
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Vis options.
+    #[command(flatten)]
+    pub vis: VisFlags,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The vis flags that `sightline vis` and `sightline compile` share.
+#[derive(Debug, Clone, clap::Args)]
+pub struct VisFlags {
     /// Base vis only (like the reference `-fast`): fast and loose.
     #[arg(long)]
     pub fast: bool,
     /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
     pub level: u8,
-    /// Worker threads (0: every core). The result is the same for any count.
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
-    /// Checkpoint file: resumed from when present, written every `--checkpoint-secs` and on Ctrl-C.
+    /// Checkpoint file: resumed from when present, written every `--checkpoint-secs` and on
+    /// Ctrl-C. The same command run again resumes from it.
     #[arg(long)]
     pub state: Option<PathBuf>,
     /// Seconds between checkpoints.
@@ -49,9 +61,28 @@ pub struct Args {
     /// Stop after this many flow portals (after writing the state): for testing resumes.
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
+}
+
+impl Default for VisFlags {
+    /// The command-line defaults: full vis at level 4, no state file.
+    fn default() -> Self {
+        Self { fast: false, level: 4, state: None, checkpoint_secs: 180, stop_after: None }
+    }
+}
+
+impl VisFlags {
+    /// The vis options these flags ask for (every core; Ctrl-C stops at the next batch).
+    pub fn options(&self) -> VisOptions {
+        VisOptions {
+            fast: self.fast,
+            level: self.level,
+            state: self.state.clone(),
+            checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_secs.max(1)),
+            stop_after: self.stop_after,
+            cancel: Some(ctrl_c_flag()),
+            ..VisOptions::default()
+        }
+    }
 }
 
 /// What `sightline vis` reports (`--json` prints this).
@@ -100,16 +131,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         );
     }
     let read_seconds = t0.elapsed().as_secs_f64();
-    let opts = VisOptions {
-        fast: args.fast,
-        level: args.level,
-        threads: args.threads,
-        state: args.state.clone(),
-        checkpoint_interval: std::time::Duration::from_secs(args.checkpoint_secs.max(1)),
-        stop_after: args.stop_after,
-        cancel: Some(ctrl_c_flag()),
-        ..VisOptions::default()
-    };
+    let opts = VisOptions { threads: args.threads, ..args.vis.options() };
     let result = compute(&prt, &opts, args.json)?;
     let t1 = Instant::now();
     let rows = Rows::new(&result);
@@ -175,7 +197,7 @@ pub(crate) fn interrupted(done: usize, total: usize, opts: &VisOptions) -> Strin
 
 /// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. If a handler
 /// cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
-pub(crate) fn ctrl_c_flag() -> Arc<AtomicBool> {
+fn ctrl_c_flag() -> Arc<AtomicBool> {
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
