@@ -55,32 +55,38 @@ fn bench(c: &mut Criterion) {
     // Among the spheres most GVS rays escape through the whole cloud: the cost is traversal of many
     // sparse boxes, unlike the city's streets.
     let spheres = scenegen::spheres(1000, false, 1);
-    let (lo, hi) = spheres.cells[0];
-    let cell = Cell::new(lo, hi);
-    let bvh_s = Bvh::build(&spheres.triangles);
-    let surface: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| cell.sample_ray(i)).collect();
+    let sphere_cell = Cell::new(spheres.cells[0].0, spheres.cells[0].1);
+    let sphere_bvh = Bvh::build(&spheres.triangles);
+    let sphere_rays: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| sphere_cell.sample_ray(i)).collect();
     let mut g = c.benchmark_group("bvh spheres:1000");
     g.sample_size(10);
     g.throughput(Throughput::Elements(RAYS as u64));
     g.bench_function("intersect cell-surface rays", |b| {
         b.iter(|| {
             black_box(
-                surface.iter().filter(|&&(o, d)| bvh_s.intersect(o, d, f32::INFINITY).is_some()).count(),
+                sphere_rays
+                    .iter()
+                    .filter(|&&(o, d)| sphere_bvh.intersect(o, d, f32::INFINITY).is_some())
+                    .count(),
             )
         })
     });
     g.finish();
 
+    // Throughput is the variant's rays (the same every run), so criterion prints GVS rays per
+    // second on one core, bookkeeping included.
     let mut g = c.benchmark_group("gvs");
     g.sample_size(10);
-    for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette, Variant::ProbeFirstTarget] {
-        g.bench_function(format!("{} city:100 street cell", v.name()), |b| {
-            b.iter(|| {
-                black_box(
-                    sampler::run(&scene.triangles, &bvh, cell, v.params(Params::default())).entries.len(),
-                )
-            })
-        });
+    let scenes = [
+        ("city:100 street cell", &scene.triangles, &bvh, cell),
+        ("spheres:1000 cell", &spheres.triangles, &sphere_bvh, sphere_cell),
+    ];
+    for (name, tris, bvh, cell) in scenes {
+        for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette, Variant::ProbeFirstTarget] {
+            let run = || sampler::run(tris, bvh, cell, v.params(Params::default()));
+            g.throughput(Throughput::Elements(run().stats.rays));
+            g.bench_function(format!("{} {name}", v.name()), |b| b.iter(|| black_box(run().entries.len())));
+        }
     }
     g.finish();
 }
