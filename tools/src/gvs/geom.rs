@@ -14,9 +14,6 @@ pub struct Cell {
     pub max: Vec3,
 }
 
-/// The first primes: the Halton bases of the random-ray dimensions.
-const PRIMES: [u32; 5] = [2, 3, 5, 7, 11];
-
 /// Radical inverse of `i` in base `b`: the `i`-th Halton number, in `[0, 1)`.
 pub fn halton(i: u64, b: u32) -> f32 {
     // The bases in use get constant divisors (multiplications instead of divisions).
@@ -35,13 +32,24 @@ fn radical_inverse<const B: u64>(i: u64) -> f32 {
     radical_inverse_in(i, B)
 }
 
+/// The digits of `i` in base `b`, reversed behind the radix point. While `b · i < 2^53` the
+/// reversed digits are gathered as an integer over `b^digits` (both exact in `f64`) with one
+/// division at the end; larger `i` take a division per digit.
 #[inline(always)]
 fn radical_inverse_in(mut i: u64, b: u64) -> f32 {
     if b < 2 {
         return 0.0;
     }
-    let mut f = 1.0f64;
-    let mut r = 0.0f64;
+    if i < (1u64 << 53) / b {
+        let (mut digits, mut scale) = (0u64, 1u64);
+        while i > 0 {
+            digits = digits * b + i % b;
+            scale *= b;
+            i /= b;
+        }
+        return (digits as f64 / scale as f64) as f32;
+    }
+    let (mut f, mut r) = (1.0f64, 0.0f64);
     while i > 0 {
         f /= b as f64;
         r += f * (i % b) as f64;
@@ -92,7 +100,14 @@ impl Cell {
     /// angle of the outward hemisphere. Five Halton dimensions (bases 2, 3, 5, 7, 11).
     /// A flat or degenerate cell samples its largest faces; a point cell samples the full sphere.
     pub fn sample_ray(&self, i: u64) -> (Vec3, Vec3) {
-        let x: [f32; 5] = std::array::from_fn(|k| halton(i, PRIMES[k]));
+        // One call per base, so each divides by a constant (a multiplication).
+        let x: [f32; 5] = [
+            radical_inverse::<2>(i),
+            radical_inverse::<3>(i),
+            radical_inverse::<5>(i),
+            radical_inverse::<7>(i),
+            radical_inverse::<11>(i),
+        ];
         let d = self.max - self.min;
         let areas = [d.y * d.z, d.y * d.z, d.x * d.z, d.x * d.z, d.x * d.y, d.x * d.y];
         let total: f32 = areas.iter().sum();
@@ -215,6 +230,31 @@ pub fn boundary_crossings(tri: &[Vec3; 3], o: Vec3, a: Vec3, b: Vec3) -> ([(f32,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn halton_matches_the_digit_by_digit_definition() {
+        let reference = |mut i: u64, b: u64| {
+            let (mut f, mut r) = (1.0f64, 0.0f64);
+            while i > 0 {
+                f /= b as f64;
+                r += f * (i % b) as f64;
+                i /= b;
+            }
+            r
+        };
+        let mut i = 1u64;
+        while i < u64::MAX / 3 {
+            for b in [2u32, 3, 5, 7, 11, 13] {
+                for k in [i, i + 1, i * 2 + 1] {
+                    let h = halton(k, b);
+                    assert!((0.0..=1.0).contains(&h), "{k} base {b}: {h}");
+                    assert!((f64::from(h) - reference(k, u64::from(b))).abs() < 1e-6, "{k} base {b}");
+                }
+            }
+            i = i * 3 + 1;
+        }
+        assert!(halton(u64::MAX, 11) <= 1.0);
+    }
 
     #[test]
     fn halton_base_two_and_three() {

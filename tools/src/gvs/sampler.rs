@@ -342,14 +342,15 @@ impl<'a> Gvs<'a> {
             for k in 1..start.len() {
                 start[k] += start[k - 1];
             }
-            let mut order = vec![0u32; batch.len()];
-            for (i, (_, d)) in batch.iter().enumerate() {
-                let b = bin(*d);
-                order[start[b]] = i as u32;
+            // Scattered into place, then read in order (reading the batch through an index
+            // missed the cache on every ray).
+            let mut sorted = vec![(Vec3::ZERO, Vec3::ZERO); batch.len()];
+            for &(o, d) in &batch {
+                let b = bin(d);
+                sorted[start[b]] = (o, d);
                 start[b] += 1;
             }
-            for i in order {
-                let (o, d) = batch[i as usize];
+            for (o, d) in sorted {
                 self.handle(o, d, Class::Random);
             }
         }
