@@ -321,6 +321,7 @@ impl<'a> Gvs<'a> {
 
     /// Run until termination: drain the queue, then random rays, checking the window.
     pub(super) fn run(&mut self) {
+        // The Halton index starts at the seed (any `u64`, so it wraps past the end).
         let mut halton_index = self.p.seed.max(1);
         // "first": all the initial random rays before any ABS.
         // They are cast in order of direction (a fixed, stable order): coherent rays traverse the
@@ -328,8 +329,8 @@ impl<'a> Gvs<'a> {
         let first = self.p.first.min(self.p.max_random).min(self.p.max_rays);
         if first > 0 {
             let batch: Vec<(Vec3, Vec3)> =
-                (halton_index..halton_index + first).map(|i| self.cell.sample_ray(i)).collect();
-            halton_index += first;
+                (0..first).map(|k| self.cell.sample_ray(halton_index.wrapping_add(k))).collect();
+            halton_index = halton_index.wrapping_add(first);
             // A counting sort on 16³ direction bins: stable, linear.
             let bin = |d: Vec3| {
                 let q = |x: f32| ((x + 1.0) * 8.0).clamp(0.0, 15.0) as usize;
@@ -373,7 +374,7 @@ impl<'a> Gvs<'a> {
                 self.window_new = 0;
             }
             let (o, d) = self.cell.sample_ray(halton_index);
-            halton_index += 1;
+            halton_index = halton_index.wrapping_add(1);
             self.handle(o, d, Class::Random);
         }
         if self.p.targets > 0 && !self.out_of_rays() {
