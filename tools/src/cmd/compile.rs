@@ -153,8 +153,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             return Ok(Outcome::Finding);
         }
         Err(CompileError::Vis(VisError::Interrupted { done, total })) => {
-            let vis = opts.vis.as_ref().map(|v| crate::cmd::vis::interrupted(done, total, v));
-            anyhow::bail!("vis {}", vis.unwrap_or_default())
+            anyhow::bail!("vis {}", crate::cmd::vis::interrupted(done, total, args.vis.state.is_some()))
         }
         Err(e) => return Err(e.into()),
     };

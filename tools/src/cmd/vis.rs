@@ -184,9 +184,10 @@ fn read_prt(path: &Path, beside_bsp: bool) -> anyhow::Result<PortalFile> {
     Ok(prt::read(&text, &path.display().to_string())?)
 }
 
-/// What to tell the user when vis stopped on request after `done` of `total` flow portals.
-pub(crate) fn interrupted(done: usize, total: usize, opts: &VisOptions) -> String {
-    if opts.state.is_some() {
+/// What to tell the user when vis stopped on request after `done` of `total` flow portals, with or
+/// without a state file to resume from.
+pub(crate) fn interrupted(done: usize, total: usize, saved: bool) -> String {
+    if saved {
         format!("stopped after {done} of {total} portals; run again with the same --state to resume")
     } else {
         format!(
@@ -233,7 +234,9 @@ fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<V
     flow.finish_and_clear();
     match result {
         Ok(r) => Ok(r),
-        Err(vis::VisError::Interrupted { done, total }) => bail!(interrupted(done, total, opts)),
+        Err(vis::VisError::Interrupted { done, total }) => {
+            bail!(interrupted(done, total, opts.state.is_some()))
+        }
         Err(e) => Err(e.into()),
     }
 }
