@@ -12,6 +12,8 @@ use sightline_runtime::bvh::Bvh;
 use std::hint::black_box;
 
 const RAYS: usize = 100_000;
+/// Spheres of the sparse sphere scene (most rays escape the cloud).
+const SPHERES: usize = 1000;
 /// Spheres in the thesis' sphere scene (Table 5: 10 116 in a 40³ box).
 const THESIS_SPHERES: usize = 10_116;
 
@@ -59,7 +61,7 @@ fn bench(c: &mut Criterion) {
     // sparse boxes, unlike the city's streets. At the thesis' density (10 116 spheres in the same
     // box, 0.8 M triangles) nearly every ray hits within a few units, but the tree no longer fits
     // in the caches.
-    let spheres = scenegen::spheres(1000, false, 1);
+    let spheres = scenegen::spheres(SPHERES, false, 1);
     let sphere_cell = Cell::new(spheres.cells[0].0, spheres.cells[0].1);
     let sphere_bvh = Bvh::build(&spheres.triangles);
     let dense = scenegen::spheres(THESIS_SPHERES, false, 1);
@@ -67,10 +69,12 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("bvh spheres");
     g.sample_size(10);
     g.throughput(Throughput::Elements(RAYS as u64));
-    for (name, cells, bvh) in [("1000", &spheres.cells, &sphere_bvh), ("10116", &dense.cells, &dense_bvh)] {
-        let cell = Cell::new(cells[0].0, cells[0].1);
+    for (n, cell, bvh) in [
+        (SPHERES, sphere_cell, &sphere_bvh),
+        (THESIS_SPHERES, Cell::new(dense.cells[0].0, dense.cells[0].1), &dense_bvh),
+    ] {
         let rays: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| cell.sample_ray(i)).collect();
-        g.bench_function(format!("intersect cell-surface rays, spheres:{name}"), |b| {
+        g.bench_function(format!("intersect cell-surface rays, spheres:{n}"), |b| {
             b.iter(|| {
                 black_box(rays.iter().filter(|&&(o, d)| bvh.intersect(o, d, f32::INFINITY).is_some()).count())
             })
