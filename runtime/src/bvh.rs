@@ -29,6 +29,9 @@ const BINS: usize = 16;
 const TRAVERSAL_COST: f32 = 0.6;
 /// Deepest tree the traversal stack holds; the build makes a (large) leaf rather than go deeper.
 const STACK: usize = 96;
+/// Factor widening a box's far distance (a few ulps), so that rounding in the slab test never culls
+/// a box holding a hit the watertight triangle test reports.
+const WIDEN: f32 = 1.0 + 4.0 * f32::EPSILON;
 /// Traversal stack of the 4-wide tree for trees whose deepest path needs at most this many entries
 /// (nearly all: a smaller stack is faster to set up per ray).
 const STACK_SMALL: usize = 40;
@@ -441,6 +444,11 @@ impl Bvh {
         let o = Vec3A::from(origin);
         let (ox, oy, oz) = (Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z));
         let (ix, iy, iz) = (Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z));
+        // Far distances are widened by a few ulps so that boxes never cull a hit the watertight
+        // test reports: through the reciprocal (and the current best distance), which keeps the
+        // widening off each node's critical path (a few per cent faster than widening the result).
+        let (wx, wy, wz) = (ix * WIDEN, iy * WIDEN, iz * WIDEN);
+        let mut t_wide = Vec4::splat(t_max * WIDEN);
         let side = |i: f32, axis: usize| 2 * axis + usize::from(i < 0.0);
         let (nx, ny, nz) = (side(inv.x, 0), side(inv.y, 1), side(inv.z, 2));
         let (fx, fy, fz) = (nx ^ 1, ny ^ 1, nz ^ 1);
@@ -460,6 +468,7 @@ impl Bvh {
                 for k in first..first + count as usize {
                     if let Some((t, u, v)) = tri_hit::<KZ>(&self.tris[k], ray, t_best) {
                         t_best = t;
+                        t_wide = Vec4::splat(t * WIDEN);
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
                         if ANY {
                             return best;
@@ -470,12 +479,7 @@ impl Bvh {
                 let q = &self.quads[first as usize];
                 let p = &q.planes;
                 let near = ((p[nx] - ox) * ix).max((p[ny] - oy) * iy).max((p[nz] - oz) * iz).max(Vec4::ZERO);
-                // Widened by a few ulps so that boxes never cull a hit the watertight test reports.
-                let far = ((p[fx] - ox) * ix)
-                    .min((p[fy] - oy) * iy)
-                    .min((p[fz] - oz) * iz)
-                    .min(Vec4::splat(t_best))
-                    * (1.0 + 4.0 * f32::EPSILON);
+                let far = ((p[fx] - ox) * wx).min((p[fy] - oy) * wy).min((p[fz] - oz) * wz).min(t_wide);
                 let mask = near.cmple(far).bitmask();
                 if mask != 0 {
                     let d: [f32; 4] = near.into();
@@ -607,8 +611,7 @@ fn box_hit(node: &Node, origin: Vec3A, inv: Vec3A, t_max: f32) -> Option<f32> {
     let t0 = (Vec3A::from_vec4(node.lo) - origin) * inv;
     let t1 = (Vec3A::from_vec4(node.hi) - origin) * inv;
     let tnear = t0.min(t1).max_element().max(0.0);
-    // Widened by a few ulps so that boxes never cull a hit the watertight test would report.
-    let tfar = t0.max(t1).min_element().min(t_max) * (1.0 + 4.0 * f32::EPSILON);
+    let tfar = t0.max(t1).min_element().min(t_max) * WIDEN;
     (tnear <= tfar).then_some(tnear)
 }
 
