@@ -4,7 +4,8 @@
 //! most [`MAX_LEAF`] triangles), stored as a flat array of 32-byte nodes (the two children of an
 //! interior node are adjacent) for the build, `groups` and `overlapping`; rays traverse the tree
 //! collapsed to 4-wide nodes (four children's boxes in SIMD lanes, tested at once) with a small
-//! explicit stack, entered children nearest first.
+//! explicit stack, entered children nearest first, and test a leaf's triangles four at a time
+//! (one triangle per SIMD lane, the same arithmetic as the one-triangle test, so the same hits).
 //!
 //! # Conventions
 //! - Rays are `origin + t * dir` with `dir` not necessarily normalised; `t` is in units of `dir`.
@@ -25,8 +26,12 @@ use glam::{Vec3, Vec3A, Vec4};
 pub const MAX_LEAF: usize = 4;
 /// SAH bins per axis.
 const BINS: usize = 16;
-/// Cost of one node traversal relative to one triangle test.
-const TRAVERSAL_COST: f32 = 0.6;
+/// Cost of one node traversal relative to one triangle test. The triangles of a leaf are tested
+/// four at a time ([`Block`]), so a node costs about as much as four triangles: every node of at
+/// most [`MAX_LEAF`] triangles becomes a leaf (measured against 0.6 with one-at-a-time tests:
+/// +9–14 % GVS rays per second on the sphere cloud, the city's GVS unchanged, its very coherent
+/// ID-buffer rays 10 % slower).
+const TRAVERSAL_COST: f32 = 4.0;
 /// Deepest tree the traversal stack holds; the build makes a (large) leaf rather than go deeper.
 const STACK: usize = 96;
 /// Factor widening a box's far distance (a few ulps), so that rounding in the slab test never culls
@@ -91,7 +96,7 @@ impl Node {
 /// has four), in two 64-byte cache lines. Boxes are stored one plane per vector with one lane per
 /// child, so one SIMD slab test covers all four; unused lanes hold the empty box (min +∞, max −∞),
 /// which no ray enters. A child is a quad (`count == 0`, `first` is its index in `quads`) or a
-/// leaf (`first`/`count` as in [`BuildNode`]).
+/// leaf (`first` is its first [`Block`], `count` its triangles).
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 struct Quad {
@@ -118,15 +123,19 @@ impl Quad {
 
 /// Collapse the binary tree into [`Quad`]s (root quad first; empty when the root is a leaf), and
 /// the most traversal stack entries a ray can need (a quad pushes all its children but one).
-fn collapse(nodes: &[Node]) -> (Vec<Quad>, usize) {
+fn collapse(nodes: &[Node], tris: &[Prepared]) -> (Vec<Quad>, Vec<Block>, usize) {
     let half_area = |n: &Node| {
         let d = (n.hi - n.lo).truncate().max(Vec3::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     };
     let mut quads = Vec::new();
+    let mut blocks = Vec::new();
     // A leaf root, or the empty tree (a root without triangles or children).
     if nodes.len() < 3 || nodes[0].count() > 0 {
-        return (quads, 0);
+        if let Some(root) = nodes.first() {
+            blocks.extend(Block::of_leaf(tris, root.first(), root.count()));
+        }
+        return (quads, blocks, 0);
     }
     quads.push(Quad::EMPTY);
     // Per quad: the most entries on the stack when a ray enters it.
@@ -160,7 +169,8 @@ fn collapse(nodes: &[Node]) -> (Vec<Quad>, usize) {
                 q.planes[2 * axis + 1][lane] = node.hi[axis];
             }
             if node.count() > 0 {
-                (q.first[lane], q.count[lane]) = (node.first(), node.count());
+                (q.first[lane], q.count[lane]) = (blocks.len() as u32, node.count());
+                blocks.extend(Block::of_leaf(tris, node.first(), node.count()));
             } else {
                 q.first[lane] = quads.len() as u32;
                 work.push((k, quads.len()));
@@ -171,7 +181,7 @@ fn collapse(nodes: &[Node]) -> (Vec<Quad>, usize) {
         need = need.max(stack_need[qi] + n - 1);
         quads[qi] = q;
     }
-    (quads, need)
+    (quads, blocks, need)
 }
 
 /// A triangle's corners, exactly as given (watertightness needs shared corners bit-identical).
@@ -180,6 +190,42 @@ struct Prepared {
     v0: Vec3,
     v1: Vec3,
     v2: Vec3,
+}
+
+/// Up to four triangles of a leaf, for one SIMD watertight test: `p[vertex][axis]`, lane `i` for
+/// the `i`-th of the triangles at build positions `first..first + n` (as in `Bvh::ids`); unused
+/// lanes are NaN, which never hits.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+struct Block {
+    p: [[Vec4; 3]; 3],
+    first: u32,
+    n: u32,
+}
+
+impl Block {
+    /// The blocks of the triangles `first..first + count` of `tris`.
+    fn of_leaf(tris: &[Prepared], first: u32, count: u32) -> impl Iterator<Item = Block> + '_ {
+        (first..first + count).step_by(4).map(move |f| {
+            let n = (first + count - f).min(4);
+            let mut p = [[Vec4::NAN; 3]; 3];
+            for lane in 0..n as usize {
+                let t = &tris[f as usize + lane];
+                for (k, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
+                    for axis in 0..3 {
+                        p[k][axis][lane] = v[axis];
+                    }
+                }
+            }
+            Block { p, first: f, n }
+        })
+    }
+
+    /// The triangle in `lane`.
+    fn tri(&self, lane: usize) -> Prepared {
+        let v = |k: usize| Vec3::new(self.p[k][0][lane], self.p[k][1][lane], self.p[k][2][lane]);
+        Prepared { v0: v(0), v1: v(1), v2: v(2) }
+    }
 }
 
 /// A ray prepared for the watertight test: the axis permutation and shear that map `dir` to +z.
@@ -218,7 +264,11 @@ pub struct Bvh {
     quads: Vec<Quad>,
     /// True when a ray may need more than [`STACK_SMALL`] stack entries.
     deep: bool,
-    tris: Vec<Prepared>,
+    /// The leaves' triangles in [`Block`]s (the only copy of the geometry); leaf children of quads
+    /// (and a leaf root) index these.
+    blocks: Vec<Block>,
+    /// Per triangle in build order (as `ids`), its block times four plus its lane.
+    slots: Vec<u32>,
     ids: Vec<u32>,
 }
 
@@ -313,8 +363,20 @@ impl Bvh {
             })
             .collect();
         let nodes: Vec<Node> = nodes.iter().map(Node::pack).collect();
-        let (quads, need) = collapse(&nodes);
-        Bvh { nodes, quads, deep: need > STACK_SMALL, tris, ids }
+        let (quads, blocks, need) = collapse(&nodes, &tris);
+        let mut slots = vec![0u32; tris.len()];
+        for (bi, b) in blocks.iter().enumerate() {
+            for lane in 0..b.n {
+                slots[(b.first + lane) as usize] = bi as u32 * 4 + lane;
+            }
+        }
+        Bvh { nodes, quads, deep: need > STACK_SMALL, blocks, slots, ids }
+    }
+
+    /// The triangle at build-order position `k` (`k < ids.len()`).
+    fn tri(&self, k: usize) -> Prepared {
+        let s = self.slots[k] as usize;
+        self.blocks[s / 4].tri(s % 4)
     }
 
     /// Number of triangles the tree holds (non-finite input triangles are left out).
@@ -397,7 +459,7 @@ impl Bvh {
             let first = node.first() as usize;
             if node.count() > 0 {
                 for k in first..first + node.count() as usize {
-                    let t = &self.tris[k];
+                    let t = self.tri(k);
                     let (a, b, c) = (Vec3A::from(t.v0), Vec3A::from(t.v1), Vec3A::from(t.v2));
                     if overlaps(a.min(b).min(c), a.max(b).max(c)) {
                         f(self.ids[k]);
@@ -460,13 +522,13 @@ impl Bvh {
         box_hit(&self.nodes[0], o, inv, t_best)?;
         // The root: a leaf, or quad 0.
         // The root: a leaf, or quad 0.
-        let (mut first, mut count) =
-            (if self.nodes[0].count() > 0 { self.nodes[0].first() } else { 0 }, self.nodes[0].count());
+        let (mut first, mut count) = (0, self.nodes[0].count());
+        let wray = WideRay::new::<KZ>(ray);
         loop {
             if count > 0 {
                 let first = first as usize;
-                for k in first..first + count as usize {
-                    if let Some((t, u, v)) = tri_hit::<KZ>(&self.tris[k], ray, t_best) {
+                for b in &self.blocks[first..first + count.div_ceil(4) as usize] {
+                    if let Some((k, t, u, v)) = self.block_hit::<KZ>(b, &wray, ray, t_best) {
                         t_best = t;
                         t_wide = Vec4::splat(t * WIDEN);
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
@@ -521,6 +583,100 @@ impl Bvh {
                 }
             }
         }
+    }
+}
+
+/// A ray's origin and shear (see [`Ray`]) in the permuted axes `kx, ky, kz`, in all SIMD lanes.
+#[derive(Debug, Clone, Copy)]
+struct WideRay {
+    o: [Vec4; 3],
+    s: [Vec4; 3],
+}
+
+impl WideRay {
+    #[inline(always)]
+    fn new<const KZ: usize>(ray: &Ray) -> WideRay {
+        let (kx, ky) = ((KZ + 1) % 3, (KZ + 2) % 3);
+        let o = ray.origin;
+        WideRay {
+            o: [Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[KZ])],
+            s: [Vec4::splat(ray.sx), Vec4::splat(ray.sy), Vec4::splat(ray.sz)],
+        }
+    }
+}
+
+impl Bvh {
+    /// [`tri_hit`] on the (up to four) triangles of `b` at once: the nearest hit with
+    /// `0 < t < t_max` as `(index in tris, t, u, v)`, the first of equals in lane order, exactly
+    /// as testing them one after the other would give. Blocks where an edge function comes out
+    /// exactly zero go through [`tri_hit`] (its `f64` recomputation).
+    #[inline(always)]
+    fn block_hit<const KZ: usize>(
+        &self,
+        b: &Block,
+        r: &WideRay,
+        ray: &Ray,
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
+        let [ox, oy, oz] = r.o;
+        let [sx, sy, sz] = r.s;
+        let p = &b.p;
+        let (az, bz, cz) = (p[0][kz] - oz, p[1][kz] - oz, p[2][kz] - oz);
+        let ax = (p[0][kx] - ox) - sx * az;
+        let ay = (p[0][ky] - oy) - sy * az;
+        let bx = (p[1][kx] - ox) - sx * bz;
+        let by = (p[1][ky] - oy) - sy * bz;
+        let cx = (p[2][kx] - ox) - sx * cz;
+        let cy = (p[2][ky] - oy) - sy * cz;
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
+            return self.block_hit_scalar::<KZ>(b, ray, t_max);
+        }
+        let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        let det = u + v + w;
+        let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
+        let inv = Vec4::ONE / det;
+        let t = t_scaled * inv;
+        let hit = !(neg & pos)
+            & det.cmpne(zero)
+            & det.abs().cmplt(Vec4::INFINITY)
+            & t.cmpgt(zero)
+            & t.cmplt(Vec4::splat(t_max));
+        let mask = hit.bitmask();
+        if mask == 0 {
+            return None;
+        }
+        let ts: [f32; 4] = t.into();
+        let mut lane = mask.trailing_zeros() as usize;
+        for i in lane + 1..4 {
+            if mask & (1 << i) != 0 && ts[i] < ts[lane] {
+                lane = i;
+            }
+        }
+        Some((b.first as usize + lane, ts[lane], v[lane] * inv[lane], w[lane] * inv[lane]))
+    }
+
+    /// [`tri_hit`] on the triangles of `b` one after the other.
+    fn block_hit_scalar<const KZ: usize>(
+        &self,
+        b: &Block,
+        ray: &Ray,
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let mut best = None;
+        let mut t_best = t_max;
+        for k in b.first as usize..(b.first + b.n) as usize {
+            if let Some((t, u, v)) = tri_hit::<KZ>(&b.tri(k - b.first as usize), ray, t_best) {
+                t_best = t;
+                best = Some((k, t, u, v));
+            }
+        }
+        best
     }
 }
 
@@ -856,13 +1012,15 @@ mod tests {
         }
     }
 
-    /// Triangles nested in each other at halving sizes make a binary tree as deep as the
+    /// Triangles nested in each other at shrinking sizes make a binary tree nearly as deep as the
     /// triangles are many, so the 4-wide traversal needs the deep stack; it still finds every hit.
     #[test]
     fn deep_tree_uses_the_deep_stack_and_agrees_with_brute_force() {
-        let tris: Vec<[Vec3; 3]> = (0..70)
+        const NESTED: i32 = 300;
+        const RATIO: f32 = 0.8;
+        let tris: Vec<[Vec3; 3]> = (0..NESTED)
             .map(|k| {
-                let s = 0.5f32.powi(k);
+                let s = RATIO.powi(k);
                 [Vec3::new(s, 0.0, 0.0), Vec3::new(s, s, 0.0), Vec3::new(s, 0.0, s)]
             })
             .collect();
@@ -870,7 +1028,7 @@ mod tests {
         assert!(bvh.deep, "expected a tree needing more than {STACK_SMALL} stack entries");
         let mut rng = unit_rng(3);
         for k in 0..2000 {
-            let s = 0.5f32.powi(k % 70);
+            let s = RATIO.powi(k % NESTED);
             let o = Vec3::new(-1.0, s * rng() * 0.5, s * rng() * 0.5);
             let d = Vec3::new(1.0, 0.01 * (rng() - 0.5), 0.01 * (rng() - 0.5));
             let (a, b) = (bvh.intersect(o, d, 1e30), intersect_brute(&tris, o, d, 1e30));
