@@ -520,15 +520,14 @@ impl Bvh {
         let mut stack = [(0u32, 0u32, 0f32); N];
         let mut sp = 0usize;
         box_hit(&self.nodes[0], o, inv, t_best)?;
-        // The root: a leaf, or quad 0.
-        // The root: a leaf, or quad 0.
+        // The root: a leaf (its blocks start at 0), or quad 0.
         let (mut first, mut count) = (0, self.nodes[0].count());
         let wray = WideRay::new::<KZ>(ray);
         loop {
             if count > 0 {
                 let first = first as usize;
                 for b in &self.blocks[first..first + count.div_ceil(4) as usize] {
-                    if let Some((k, t, u, v)) = self.block_hit::<KZ>(b, &wray, ray, t_best) {
+                    if let Some((k, t, u, v)) = b.hit::<KZ>(&wray, ray, t_best) {
                         t_best = t;
                         t_wide = Vec4::splat(t * WIDEN);
                         best = Some(Hit { t, triangle: self.ids[k], u, v });
@@ -605,19 +604,14 @@ impl WideRay {
     }
 }
 
-impl Bvh {
-    /// [`tri_hit`] on the (up to four) triangles of `b` at once: the nearest hit with
-    /// `0 < t < t_max` as `(index in tris, t, u, v)`, the first of equals in lane order, exactly
+impl Block {
+    /// [`tri_hit`] on the (up to four) triangles of the block at once: the nearest hit with
+    /// `0 < t < t_max` as `(build position, t, u, v)`, the first of equals in lane order, exactly
     /// as testing them one after the other would give. Blocks where an edge function comes out
     /// exactly zero go through [`tri_hit`] (its `f64` recomputation).
     #[inline(always)]
-    fn block_hit<const KZ: usize>(
-        &self,
-        b: &Block,
-        r: &WideRay,
-        ray: &Ray,
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
+    fn hit<const KZ: usize>(&self, r: &WideRay, ray: &Ray, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        let b = self;
         let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
         let [ox, oy, oz] = r.o;
         let [sx, sy, sz] = r.s;
@@ -634,7 +628,7 @@ impl Bvh {
         let w = bx * ay - by * ax;
         let zero = Vec4::ZERO;
         if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
-            return self.block_hit_scalar::<KZ>(b, ray, t_max);
+            return b.hit_scalar::<KZ>(ray, t_max);
         }
         let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
         let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
@@ -661,19 +655,14 @@ impl Bvh {
         Some((b.first as usize + lane, ts[lane], v[lane] * inv[lane], w[lane] * inv[lane]))
     }
 
-    /// [`tri_hit`] on the triangles of `b` one after the other.
-    fn block_hit_scalar<const KZ: usize>(
-        &self,
-        b: &Block,
-        ray: &Ray,
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
+    /// [`tri_hit`] on the block's triangles one after the other.
+    fn hit_scalar<const KZ: usize>(&self, ray: &Ray, t_max: f32) -> Option<(usize, f32, f32, f32)> {
         let mut best = None;
         let mut t_best = t_max;
-        for k in b.first as usize..(b.first + b.n) as usize {
-            if let Some((t, u, v)) = tri_hit::<KZ>(&b.tri(k - b.first as usize), ray, t_best) {
+        for lane in 0..self.n as usize {
+            if let Some((t, u, v)) = tri_hit::<KZ>(&self.tri(lane), ray, t_best) {
                 t_best = t;
-                best = Some((k, t, u, v));
+                best = Some((self.first as usize + lane, t, u, v));
             }
         }
         best
