@@ -22,6 +22,9 @@
 
 use glam::{Vec3, Vec3A, Vec4};
 
+mod packet;
+pub use packet::LANES;
+
 /// Most triangles in one leaf.
 pub const MAX_LEAF: usize = 4;
 /// SAH bins per axis.
@@ -475,7 +478,9 @@ impl Bvh {
     }
 
     fn traverse<const ANY: bool>(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        if self.ids.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+        // A non-finite ray hits nothing (and could enter the empty lanes of a quad, which would
+        // lead back to the root).
+        if self.ids.is_empty() || t_max.is_nan() || t_max <= 0.0 || !(origin.is_finite() && dir.is_finite()) {
             return None;
         }
         let ray = Ray::new(origin, dir);
@@ -854,6 +859,23 @@ mod tests {
     }
 
     #[test]
+    fn non_finite_rays_hit_nothing() {
+        let bvh = Bvh::build(&sphere_cloud(7));
+        let bad = [
+            Vec3::NAN,
+            Vec3::new(1.0, f32::NAN, 0.0),
+            Vec3::INFINITY,
+            Vec3::new(0.0, f32::NEG_INFINITY, 1.0),
+        ];
+        for v in bad {
+            assert!(bvh.intersect(Vec3::ZERO, v, 1e30).is_none(), "direction {v}");
+            assert!(bvh.intersect(v, Vec3::X, 1e30).is_none(), "origin {v}");
+            assert!(!bvh.occluded(Vec3::ZERO, v, 1e30), "direction {v}");
+        }
+        assert!(bvh.intersect(Vec3::ZERO, Vec3::ZERO, 1e30).is_none());
+    }
+
+    #[test]
     fn empty_and_degenerate_input() {
         let bvh = Bvh::build(&[]);
         assert!(bvh.is_empty());
@@ -951,6 +973,90 @@ mod tests {
         }
     }
 
+    proptest! {
+        #[test]
+        fn packets_agree_with_one_ray_at_a_time(
+            tris in prop::collection::vec(tri_strategy(), 1..300),
+            (ox, oy, oz) in (-12.0f32..12.0, -12.0f32..12.0, -12.0f32..12.0),
+            (bx, by, bz) in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+            spread in prop_oneof![Just(0.0f32), 0.0f32..0.05, 0.0f32..2.0],
+            jitter in prop::collection::vec((-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0), 1..90),
+            t_max in prop_oneof![Just(1e30f32), 0.1f32..20.0],
+        ) {
+            // A cone of rays from one origin (coherent at small spreads), every fifth ray from
+            // elsewhere: packets of mixed axes and octants, partial and full packets, more than
+            // one 64-ray chunk.
+            let bvh = Bvh::build(&tris);
+            let o = Vec3::new(ox, oy, oz);
+            let base = Vec3::new(bx, by, bz);
+            let rays: Vec<(Vec3, Vec3)> = jitter
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y, z))| {
+                    let j = Vec3::new(x, y, z);
+                    if i % 5 == 4 { (o + j * 10.0, Vec3::new(j.y, j.z, j.x)) } else { (o, base + j * spread) }
+                })
+                .collect();
+            let mut hits = vec![None; 3];
+            bvh.intersect_many(&rays, t_max, &mut hits);
+            prop_assert_eq!(hits.len(), rays.len());
+            for (&(o, d), &a) in rays.iter().zip(&hits) {
+                let b = bvh.intersect(o, d, t_max);
+                prop_assert!(same_hit(&tris, o, d, a, b), "packet {a:?} one ray {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn pixel_tiles_of_a_sphere_cloud_equal_brute_force() {
+        let tris = sphere_cloud(7);
+        let bvh = Bvh::build(&tris);
+        let mut rng = unit_rng(11);
+        let mut hits = Vec::new();
+        for view in 0..8 {
+            let eye = Vec3::new(rng(), rng(), rng()) * 50.0 - 25.0;
+            let forward = (Vec3::new(rng(), rng(), rng()) * 2.0 - 1.0).normalize_or(Vec3::X);
+            let right = forward.cross(Vec3::Z).normalize_or(Vec3::Y);
+            let up = right.cross(forward);
+            // 4×4 tiles of a 40×40 image at 60°, and some rays that are no rays at all.
+            for tile in 0..100 {
+                let (tx, ty) = (tile % 10 * 4, tile / 10 * 4);
+                let mut rays: Vec<(Vec3, Vec3)> = (0..16)
+                    .map(|k| {
+                        let u = ((tx + k % 4) as f32 / 20.0 - 1.0) * 0.577;
+                        let v = ((ty + k / 4) as f32 / 20.0 - 1.0) * 0.577;
+                        (eye, forward + right * u + up * v)
+                    })
+                    .collect();
+                if tile == view {
+                    rays[3].1 = Vec3::ZERO;
+                    rays[7].1 = Vec3::NAN;
+                    rays[9].0 = Vec3::NAN;
+                }
+                bvh.intersect_many(&rays, 1e30, &mut hits);
+                for (&(o, d), &a) in rays.iter().zip(&hits) {
+                    let b = intersect_brute(&tris, o, d, 1e30);
+                    assert!(same_hit(&tris, o, d, a, b), "view {view} tile {tile}: packet {a:?} brute {b:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn packets_on_trees_without_quads() {
+        for tris in [Vec::new(), quad_wall(2.0)] {
+            let bvh = Bvh::build(&tris);
+            let rays =
+                [(Vec3::ZERO, Vec3::X), (Vec3::ZERO, Vec3::new(1.0, 0.1, 0.1)), (Vec3::ZERO, -Vec3::X)];
+            let mut hits = Vec::new();
+            bvh.intersect_many(&rays, f32::INFINITY, &mut hits);
+            let one: Vec<Option<Hit>> =
+                rays.iter().map(|&(o, d)| bvh.intersect(o, d, f32::INFINITY)).collect();
+            assert_eq!(hits, one);
+            assert_eq!(hits[0].is_some(), !tris.is_empty());
+        }
+    }
+
     /// The tree's hit is the brute-force hit exactly (`t`, triangle, `u`, `v`), or a different
     /// triangle hit at exactly the same `t` (a tie, which the traversal order decides).
     fn same_hit(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, a: Option<Hit>, b: Option<Hit>) -> bool {
@@ -967,9 +1073,9 @@ mod tests {
 
     /// Random closed spheres (shared edges) scattered in a box, rays from inside and outside in
     /// every direction, some with a finite `t_max`.
-    #[test]
-    fn sphere_cloud_hits_equal_brute_force() {
-        let mut rng = unit_rng(7);
+    /// 60 tessellated spheres (120 triangles each) in a 40-unit box.
+    fn sphere_cloud(seed: u64) -> Vec<[Vec3; 3]> {
+        let mut rng = unit_rng(seed);
         let mut tris = Vec::new();
         for _ in 0..60 {
             let c = Vec3::new(rng(), rng(), rng()) * 40.0 - 20.0;
@@ -990,6 +1096,13 @@ mod tests {
                 }
             }
         }
+        tris
+    }
+
+    #[test]
+    fn sphere_cloud_hits_equal_brute_force() {
+        let tris = sphere_cloud(7);
+        let mut rng = unit_rng(8);
         let bvh = Bvh::build(&tris);
         for k in 0..3000 {
             let o = Vec3::new(rng(), rng(), rng()) * 50.0 - 25.0;

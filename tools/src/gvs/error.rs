@@ -37,20 +37,39 @@ pub fn views(cell: &Cell, n: usize, seed: u64) -> Vec<View> {
         .collect()
 }
 
+/// Side of the square pixel tiles traced as one packet ([`Bvh::intersect_many`]).
+const TILE: usize = 4;
+
 /// Triangle index seen at every pixel of a `res × res` image (`u32::MAX` for nothing), rows top
-/// to bottom.
+/// to bottom. Bands of [`TILE`] rows are cast in parallel, each in packets of `TILE × TILE`
+/// pixels (the same hits as one ray per pixel, but for which of two triangles at exactly the same
+/// distance a pixel shows).
 pub fn id_buffer(bvh: &Bvh, view: &View, res: usize, fov_deg: f32) -> Vec<u32> {
     let right = view.forward.cross(Vec3::Z).normalize_or(Vec3::X);
     let up = right.cross(view.forward);
     let half = (fov_deg.to_radians() * 0.5).tan();
     let mut out = vec![u32::MAX; res * res];
-    out.par_chunks_mut(res.max(1)).enumerate().for_each(|(y, row)| {
-        let v = (1.0 - 2.0 * (y as f32 + 0.5) / res as f32) * half;
-        for (x, px) in row.iter_mut().enumerate() {
-            let u = (2.0 * (x as f32 + 0.5) / res as f32 - 1.0) * half;
-            let dir = view.forward + right * u + up * v;
-            if let Some(h) = bvh.intersect(view.eye, dir, f32::INFINITY) {
-                *px = h.triangle;
+    let band = res.max(1) * TILE;
+    out.par_chunks_mut(band).enumerate().for_each(|(b, rows)| {
+        let mut rays = Vec::with_capacity(TILE * TILE);
+        let mut pixels = Vec::with_capacity(TILE * TILE);
+        let mut hits = Vec::new();
+        for x0 in (0..res).step_by(TILE) {
+            rays.clear();
+            pixels.clear();
+            for (dy, row) in rows.chunks(res.max(1)).enumerate() {
+                let v = (1.0 - 2.0 * ((b * TILE + dy) as f32 + 0.5) / res as f32) * half;
+                for x in x0..(x0 + TILE).min(row.len()) {
+                    let u = (2.0 * (x as f32 + 0.5) / res as f32 - 1.0) * half;
+                    rays.push((view.eye, view.forward + right * u + up * v));
+                    pixels.push(dy * res + x);
+                }
+            }
+            bvh.intersect_many(&rays, f32::INFINITY, &mut hits);
+            for (&p, h) in pixels.iter().zip(&hits) {
+                if let (Some(px), Some(h)) = (rows.get_mut(p), h) {
+                    *px = h.triangle;
+                }
             }
         }
     });
