@@ -246,16 +246,22 @@ struct Ray {
 
 impl Ray {
     fn new(origin: Vec3, dir: Vec3) -> Ray {
-        let a = dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
+        let kz = dominant_axis(dir);
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         Ray { origin, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+    }
+}
+
+/// The axis of `dir`'s largest component (the first of equals; 2 when any is NaN).
+#[inline(always)]
+fn dominant_axis(dir: Vec3) -> usize {
+    let a = dir.abs();
+    if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
     }
 }
 

@@ -18,7 +18,7 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::{Block, Bvh, Hit, Ray, STACK_DEEP, STACK_SMALL, WIDEN, box_hit, tri_hit};
+use super::{Block, Bvh, Hit, Ray, STACK_DEEP, STACK_SMALL, WIDEN, box_hit, dominant_axis, tri_hit};
 
 /// Most rays in one packet.
 pub const LANES: usize = 16;
@@ -75,8 +75,7 @@ impl Bvh {
             let mut keys = [0u8; 64];
             let mut present = 0u32;
             for (key, &(_, d)) in keys.iter_mut().zip(chunk) {
-                let kz = Ray::new(Vec3::ZERO, d).kz;
-                *key = (kz * 8
+                *key = (dominant_axis(d) * 8
                     + usize::from(d.x < 0.0)
                     + 2 * usize::from(d.y < 0.0)
                     + 4 * usize::from(d.z < 0.0)) as u8;
