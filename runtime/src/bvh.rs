@@ -2,10 +2,11 @@
 //!
 //! A binary BVH built top-down with a binned surface-area heuristic (16 bins per axis, leaves of at
 //! most [`MAX_LEAF`] triangles), stored as a flat array of 32-byte nodes (the two children of an
-//! interior node are adjacent) for the build, `groups` and `overlapping`; rays traverse the tree
-//! collapsed to 4-wide nodes (four children's boxes in SIMD lanes, tested at once) with a small
-//! explicit stack, entered children nearest first, and test a leaf's triangles four at a time
-//! (one triangle per SIMD lane, the same arithmetic as the one-triangle test, so the same hits).
+//! interior node are adjacent) for the build and `groups`; rays traverse the tree collapsed to
+//! 4-wide nodes (four children's boxes in SIMD lanes, tested at once) with a small explicit stack,
+//! entered children nearest first, and test a leaf's triangles four at a time (one triangle per
+//! SIMD lane, the same arithmetic as the one-triangle test, so the same hits). Box queries
+//! (`overlapping`) walk the same 4-wide tree.
 //!
 //! # Conventions
 //! - Rays are `origin + t * dir` with `dir` not necessarily normalised; `t` is in units of `dir`.
@@ -276,8 +277,6 @@ pub struct Bvh {
     /// The leaves' triangles in [`Block`]s (the only copy of the geometry); leaf children of quads
     /// (and a leaf root) index these.
     blocks: Vec<Block>,
-    /// Per triangle in build order (as `ids`), its block times four plus its lane.
-    slots: Vec<u32>,
     ids: Vec<u32>,
 }
 
@@ -373,19 +372,7 @@ impl Bvh {
             .collect();
         let nodes: Vec<Node> = nodes.iter().map(Node::pack).collect();
         let (quads, blocks, need) = collapse(&nodes, &tris);
-        let mut slots = vec![0u32; tris.len()];
-        for (bi, b) in blocks.iter().enumerate() {
-            for lane in 0..b.n {
-                slots[(b.first + lane) as usize] = bi as u32 * 4 + lane;
-            }
-        }
-        Bvh { nodes, quads, deep: need > STACK_SMALL, blocks, slots, ids }
-    }
-
-    /// The triangle at build-order position `k` (`k < ids.len()`).
-    fn tri(&self, k: usize) -> Prepared {
-        let s = self.slots[k] as usize;
-        self.blocks[s / 4].tri(s % 4)
+        Bvh { nodes, quads, deep: need > STACK_SMALL, blocks, ids }
     }
 
     /// Number of triangles the tree holds (non-finite input triangles are left out).
@@ -451,35 +438,74 @@ impl Bvh {
 
     /// Call `f` with the index (in the build slice) of every triangle whose bounding box overlaps
     /// the box `min..max` (closed boxes: touching counts), in a fixed order.
-    pub fn overlapping(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32)) {
-        if self.ids.is_empty() {
-            return;
+    pub fn overlapping(&self, min: Vec3, max: Vec3, f: impl FnMut(u32)) {
+        if self.deep {
+            self.overlapping_in::<STACK_DEEP>(min, max, f);
+        } else {
+            self.overlapping_in::<STACK_SMALL>(min, max, f);
         }
-        let (min, max) = (Vec3A::from(min), Vec3A::from(max));
-        let overlaps = |lo: Vec3A, hi: Vec3A| lo.cmple(max).all() && hi.cmpge(min).all();
-        let mut stack = [0u32; STACK];
-        let mut sp = 1usize;
-        while sp > 0 {
-            sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
-            if !overlaps(Vec3A::from_vec4(node.lo), Vec3A::from_vec4(node.hi)) {
-                continue;
-            }
-            let first = node.first() as usize;
-            if node.count() > 0 {
-                for k in first..first + node.count() as usize {
-                    let t = self.tri(k);
-                    let (a, b, c) = (Vec3A::from(t.v0), Vec3A::from(t.v1), Vec3A::from(t.v2));
-                    if overlaps(a.min(b).min(c), a.max(b).max(c)) {
-                        f(self.ids[k]);
+    }
+
+    /// [`Bvh::overlapping`] through the 4-wide tree (four child boxes, then four triangle boxes, per
+    /// SIMD test), children in lane order: the binary tree's left-to-right order, so triangles come
+    /// in build order. `N` is a stack of at least the tree's need (as in `walk`).
+    fn overlapping_in<const N: usize>(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32)) {
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        let (x0, y0, z0) = (Vec4::splat(min.x), Vec4::splat(min.y), Vec4::splat(min.z));
+        let (x1, y1, z1) = (Vec4::splat(max.x), Vec4::splat(max.y), Vec4::splat(max.z));
+        // Lanes whose box `[lo, hi]` (one plane per vector) meets the query box; NaN never does.
+        let meets = |lo: [Vec4; 3], hi: [Vec4; 3]| {
+            (lo[0].cmple(x1)
+                & lo[1].cmple(y1)
+                & lo[2].cmple(z1)
+                & hi[0].cmpge(x0)
+                & hi[1].cmpge(y0)
+                & hi[2].cmpge(z0))
+            .bitmask()
+        };
+        let mut stack = [(0u32, 0u32); N];
+        let mut sp = 0usize;
+        // The root: a leaf (its blocks start at 0), or quad 0.
+        let (mut first, mut count) = (0, root.count());
+        loop {
+            if count > 0 {
+                let first = first as usize;
+                for b in self.blocks.get(first..first + count.div_ceil(4) as usize).unwrap_or_default() {
+                    let p = &b.p;
+                    let lo = std::array::from_fn(|k| p[0][k].min(p[1][k]).min(p[2][k]));
+                    let hi = std::array::from_fn(|k| p[0][k].max(p[1][k]).max(p[2][k]));
+                    let mut mask = meets(lo, hi) & ((1 << b.n) - 1);
+                    while mask != 0 {
+                        let k = b.first as usize + mask.trailing_zeros() as usize;
+                        if let Some(&id) = self.ids.get(k) {
+                            f(id);
+                        }
+                        mask &= mask - 1;
                     }
                 }
-            } else if sp + 2 <= STACK {
-                // The build keeps the tree shallower than the stack.
-                stack[sp] = first as u32 + 1;
-                stack[sp + 1] = first as u32;
-                sp += 2;
+            } else if let Some(q) = self.quads.get(first as usize) {
+                let p = &q.planes;
+                let mask = meets([p[0], p[2], p[4]], [p[1], p[3], p[5]]);
+                if mask != 0 {
+                    // The first lane now, the others (last lane deepest) later.
+                    for i in (mask.trailing_zeros() as usize + 1..4).rev() {
+                        if mask & (1 << i) != 0 && sp < N {
+                            stack[sp] = (q.first[i], q.count[i]);
+                            sp += 1;
+                        }
+                    }
+                    let i = mask.trailing_zeros() as usize;
+                    (first, count) = (q.first[i], q.count[i]);
+                    continue;
+                }
             }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            (first, count) = stack[sp];
         }
     }
 

@@ -1,5 +1,5 @@
 //! Geometry for GVS: box view cells and their ray sampler, Halton numbers, the enlarged triangle
-//! outline of adaptive border sampling, the `edgepoint` boundary crossing, and Liang–Barsky clipping.
+//! outline of adaptive border sampling, the `edgepoint` boundary crossing ([`Fan`]), and Liang–Barsky clipping.
 //!
 //! Angles are radians; `eps` offsets are angular (world offset = `eps × distance from the origin`).
 
@@ -193,38 +193,62 @@ pub fn enlarge(tri: &[Vec3; 3], o: Vec3, eps: f32) -> [Vec3; 9] {
     out
 }
 
-/// Where the rays from `o` through the line `a + s (b - a)` cross the boundary of triangle `tri`
-/// (thesis `edgepoint`, §4.3.4–4.3.5, computed as plane/edge intersections): up to two values of
-/// `s`, each with the boundary point. Crossings behind `o` are left out.
-pub fn boundary_crossings(tri: &[Vec3; 3], o: Vec3, a: Vec3, b: Vec3) -> ([(f32, Vec3); 2], usize) {
-    let n = (a - o).cross(b - o);
-    let mut out = [(0.0, Vec3::ZERO); 2];
-    let mut k = 0;
-    let dist = tri.map(|p| n.dot(p - o));
-    for i in 0..3 {
-        let j = (i + 1) % 3;
-        let (di, dj) = (dist[i], dist[j]);
-        if (di > 0.0) == (dj > 0.0) || di == dj {
-            continue;
-        }
-        let x = tri[i] + (tri[j] - tri[i]) * (di / (di - dj));
-        let w = x - o;
-        let den = (b - a).cross(w).dot(n);
-        if den == 0.0 {
-            continue;
-        }
-        let s = -(a - o).cross(w).dot(n) / den;
-        // The crossing must be in front of `o` along the ray through a + s (b - a).
-        let z = a + (b - a) * s;
-        if !s.is_finite() || (z - o).dot(w) <= 0.0 {
-            continue;
-        }
-        if k < 2 {
-            out[k] = (s, x);
-            k += 1;
-        }
+/// The fan of rays from `o` through the points `a + s (b - a)` of a line, set up once for
+/// [`Fan::crossings`] against any number of triangles.
+#[derive(Debug, Clone, Copy)]
+pub struct Fan {
+    o: Vec3,
+    a: Vec3,
+    ab: Vec3,
+    /// Normal of the fan's plane, `(a - o) × (b - o)`.
+    n: Vec3,
+    /// `n × (a - o)` and `n × (b - a)`: the line parameter of the ray through a point `x` of the
+    /// plane is `-(x - o)·na / (x - o)·nab`.
+    na: Vec3,
+    nab: Vec3,
+}
+
+impl Fan {
+    /// The rays from `o` through the line from `a` (`s = 0`) to `b` (`s = 1`).
+    pub fn new(o: Vec3, a: Vec3, b: Vec3) -> Fan {
+        let n = (a - o).cross(b - o);
+        Fan { o, a, ab: b - a, n, na: n.cross(a - o), nab: n.cross(b - a) }
     }
-    (out, k)
+
+    /// Where the fan's rays cross the boundary of triangle `tri` (thesis `edgepoint`,
+    /// §4.3.4–4.3.5, computed as plane/edge intersections): up to two values of `s`, each with the
+    /// boundary point. Crossings behind `o` are left out.
+    pub fn crossings(&self, tri: &[Vec3; 3]) -> ([(f32, Vec3); 2], usize) {
+        let (o, n) = (self.o, self.n);
+        let mut out = [(0.0, Vec3::ZERO); 2];
+        let mut k = 0;
+        let dist = tri.map(|p| n.dot(p - o));
+        for i in 0..3 {
+            let j = (i + 1) % 3;
+            let (di, dj) = (dist[i], dist[j]);
+            if (di > 0.0) == (dj > 0.0) || di == dj {
+                continue;
+            }
+            let x = tri[i] + (tri[j] - tri[i]) * (di / (di - dj));
+            let w = x - o;
+            // `((b - a) × w)·n` and `((a - o) × w)·n` as one dot product each.
+            let den = w.dot(self.nab);
+            if den == 0.0 {
+                continue;
+            }
+            let s = -w.dot(self.na) / den;
+            // The crossing must be in front of `o` along the ray through a + s (b - a).
+            let z = self.a + self.ab * s;
+            if !s.is_finite() || (z - o).dot(w) <= 0.0 {
+                continue;
+            }
+            if k < 2 {
+                out[k] = (s, x);
+                k += 1;
+            }
+        }
+        (out, k)
+    }
 }
 
 #[cfg(test)]
@@ -301,7 +325,7 @@ mod tests {
     fn edgepoint_matches_the_digest_example() {
         let tri = [Vec3::new(0.0, -1.0, 3.0), Vec3::new(0.6, 1.0, 3.0), Vec3::new(-0.4, 1.0, 3.0)];
         let (c, k) =
-            boundary_crossings(&tri, Vec3::ZERO, Vec3::new(-1.0, 0.0, 5.0), Vec3::new(1.0, 0.0, 5.0));
+            Fan::new(Vec3::ZERO, Vec3::new(-1.0, 0.0, 5.0), Vec3::new(1.0, 0.0, 5.0)).crossings(&tri);
         assert_eq!(k, 2);
         let mut s: Vec<f32> = c.iter().map(|x| x.0).collect();
         s.sort_by(f32::total_cmp);

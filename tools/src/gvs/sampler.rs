@@ -25,9 +25,9 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use sightline_runtime::bvh::Bvh;
+use sightline_runtime::bvh::{Bvh, Hit};
 
-use super::geom::{Cell, boundary_crossings, enlarge, halton};
+use super::geom::{Cell, Fan, enlarge, halton};
 
 /// How ABS samples the edges of the enlarged outline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -195,11 +195,21 @@ pub(super) enum Class {
 /// No triangle: the ray escaped.
 const NONE: u32 = u32::MAX;
 
-/// A cast ray: what it hit (`NONE` for nothing) and where (the aimed point when nothing).
+/// A cast ray `o + t dir`: what it hit (`NONE` for nothing), where (the aimed point `o + dir`
+/// when nothing), and the ray parameter there (1 when nothing).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Sample {
     pub(super) tri: u32,
     pub(super) pos: Vec3,
+    pub(super) t: f32,
+}
+
+/// The sample of the ray `o + t dir` with hit `h`.
+fn sample(o: Vec3, dir: Vec3, h: Option<Hit>) -> Sample {
+    match h {
+        Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t, t: h.t },
+        None => Sample { tri: NONE, pos: o + dir, t: 1.0 },
+    }
 }
 
 /// A queued ABS seed.
@@ -288,6 +298,13 @@ impl<'a> Gvs<'a> {
 
     /// Cast one ray from `o` towards `target` without touching the PVS.
     pub(super) fn cast(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
+        self.count(class);
+        let h = self.bvh.intersect(o, dir, f32::INFINITY);
+        sample(o, dir, h)
+    }
+
+    /// Count one ray of `class`.
+    fn count(&mut self, class: Class) {
         self.stats.rays += 1;
         match class {
             Class::Random => self.stats.random += 1,
@@ -299,19 +316,20 @@ impl<'a> Gvs<'a> {
             Class::Probe => self.stats.probe += 1,
             Class::Target => self.stats.target += 1,
         }
-        match self.bvh.intersect(o, dir, f32::INFINITY) {
-            Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t },
-            None => Sample { tri: NONE, pos: o + dir },
-        }
     }
 
     /// Cast, and add a new triangle to the PVS and the seed queue (`handle_ray`).
     pub(super) fn handle(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
         let s = self.cast(o, dir, class);
+        self.add(o, s);
+        s
+    }
+
+    /// Add the triangle `s` hit from `o`, when new, to the PVS and the seed queue.
+    fn add(&mut self, o: Vec3, s: Sample) {
         if s.tri != NONE && self.insert(s.tri, o, s.pos) {
             self.queue.push_back(Seed { origin: o, tri: s.tri, hit: s.pos });
         }
-        s
     }
 
     /// Queue an existing PVS entry for ABS (incremental update of new triangles).
@@ -645,8 +663,9 @@ impl<'a> Gvs<'a> {
         // Step past a boundary by a twentieth of the enlargement offset (at most a quarter of the
         // segment), in units of the segment.
         let push = |x: Vec3| (0.05 * eps * (x - o).length()).min(0.25 * len) / len;
+        let fan = Fan::new(o, a, b);
         if let Some(tri) = self.tris.get(sa.tri as usize) {
-            let (c, k) = boundary_crossings(tri, o, a, b);
+            let (c, k) = fan.crossings(tri);
             if let Some(&(s, x)) = c[..k].iter().max_by(|p, q| p.0.total_cmp(&q.0)) {
                 let s = s + push(x);
                 if s > 0.0 && s < 1.0 {
@@ -660,7 +679,7 @@ impl<'a> Gvs<'a> {
             }
         }
         if let Some(tri) = self.tris.get(sb.tri as usize) {
-            let (c, k) = boundary_crossings(tri, o, a, b);
+            let (c, k) = fan.crossings(tri);
             if let Some(&(s, x)) = c[..k].iter().min_by(|p, q| p.0.total_cmp(&q.0)) {
                 let s = s - push(x);
                 if s > 0.0 && s < 1.0 {
@@ -679,15 +698,12 @@ impl<'a> Gvs<'a> {
         self.walk(o, m, sm, b, sb, e2, steps, depth + 1);
     }
 
-    /// `check_discontinuity`: the ray from `o` aimed at `p` hit `s`; when that is much nearer than
-    /// `p`, count it and (when enabled) reverse-sample into the gap behind the occluder.
-    /// `e2` is a point known visible on the far surface (the seed's hit point).
+    /// `check_discontinuity`: the ray `o + t (p - o)` hit `s`; when that is much nearer than `p`
+    /// (`t < 1 - disc`: the hit is nearer by more than `disc` of the aimed distance), count it and
+    /// (when enabled) reverse-sample into the gap behind the occluder. `e2` is a point known
+    /// visible on the far surface (the seed's hit point).
     pub(super) fn check_discontinuity(&mut self, o: Vec3, p: Vec3, s: Sample, e2: Vec3) {
-        if s.tri == NONE {
-            return;
-        }
-        let aimed = (p - o).length();
-        if aimed - (s.pos - o).length() <= self.p.disc * aimed {
+        if s.tri == NONE || 1.0 - s.t <= self.p.disc {
             return;
         }
         self.stats.discontinuities += 1;
@@ -703,7 +719,7 @@ impl<'a> Gvs<'a> {
         let Some(tri) = self.tris.get(near as usize) else {
             return;
         };
-        let (c, k) = boundary_crossings(tri, o, e1, e2);
+        let (c, k) = Fan::new(o, e1, e2).crossings(tri);
         let Some(&(_, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|p, q| p.0.total_cmp(&q.0)) else {
             return;
         };

@@ -25,7 +25,7 @@ use std::time::Instant;
 use glam::Vec3;
 use sightline_runtime::bvh::Bvh;
 
-use super::geom::boundary_crossings;
+use super::geom::Fan;
 use super::sampler::{Class, Gvs, Params, Pvs};
 
 /// The PVS of `prev.cell` moved by `v`, reusing `prev`.
@@ -85,7 +85,7 @@ fn pva_sampling(g: &mut Gvs<'_>, tris: &[[Vec3; 3]], tri: u32, o: Vec3, hit: Vec
     };
     let eps = g.p.eps;
     // The `edgepoint` ray: just past the boundary of `t` from `hit` along `v`.
-    let (c, k) = boundary_crossings(t, o, hit, hit + v);
+    let (c, k) = Fan::new(o, hit, hit + v).crossings(t);
     if let Some(&(s, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|a, b| a.0.total_cmp(&b.0)) {
         let push = eps * (x - o).length() / v.length().max(f32::MIN_POSITIVE);
         let p = hit + v * (s + push);
