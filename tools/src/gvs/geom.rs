@@ -3,7 +3,7 @@
 //!
 //! Angles are radians; `eps` offsets are angular (world offset = `eps × distance from the origin`).
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
 
 /// A box view cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -168,6 +168,7 @@ impl Cell {
 /// `eps × |p - o|` outside the triangle and perpendicular to the viewing ray, in order around the
 /// triangle. Works for either winding and for back faces.
 pub fn enlarge(tri: &[Vec3; 3], o: Vec3, eps: f32) -> [Vec3; 9] {
+    let (tri, o) = (tri.map(Vec3A::from), Vec3A::from(o));
     let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
     let flip = if n.dot(o - tri[0]) < 0.0 { -1.0 } else { 1.0 };
     let mut out = [Vec3::ZERO; 9];
@@ -186,68 +187,80 @@ pub fn enlarge(tri: &[Vec3; 3], o: Vec3, eps: f32) -> [Vec3; 9] {
             (view.cross(out_next) + out_prev.cross(view)).normalize_or_zero() * flip
         };
         let r = eps * view.length();
-        out[3 * i] = p + out_prev * r;
-        out[3 * i + 1] = p + corner * r;
-        out[3 * i + 2] = p + out_next * r;
+        out[3 * i] = Vec3::from(p + out_prev * r);
+        out[3 * i + 1] = Vec3::from(p + corner * r);
+        out[3 * i + 2] = Vec3::from(p + out_next * r);
     }
     out
 }
 
 /// The fan of rays from `o` through the points `a + s (b - a)` of a line, set up once for
-/// [`Fan::crossings`] against any number of triangles.
+/// [`Fan::span`] against any number of triangles.
 #[derive(Debug, Clone, Copy)]
 pub struct Fan {
-    o: Vec3,
-    a: Vec3,
-    ab: Vec3,
+    o: Vec3A,
+    a: Vec3A,
+    ab: Vec3A,
     /// Normal of the fan's plane, `(a - o) × (b - o)`.
-    n: Vec3,
+    n: Vec3A,
     /// `n × (a - o)` and `n × (b - a)`: the line parameter of the ray through a point `x` of the
     /// plane is `-(x - o)·na / (x - o)·nab`.
-    na: Vec3,
-    nab: Vec3,
+    na: Vec3A,
+    nab: Vec3A,
 }
 
 impl Fan {
     /// The rays from `o` through the line from `a` (`s = 0`) to `b` (`s = 1`).
     pub fn new(o: Vec3, a: Vec3, b: Vec3) -> Fan {
+        let (o, a, b) = (Vec3A::from(o), Vec3A::from(a), Vec3A::from(b));
         let n = (a - o).cross(b - o);
         Fan { o, a, ab: b - a, n, na: n.cross(a - o), nab: n.cross(b - a) }
     }
 
     /// Where the fan's rays cross the boundary of triangle `tri` (thesis `edgepoint`,
-    /// §4.3.4–4.3.5, computed as plane/edge intersections): up to two values of `s`, each with the
-    /// boundary point. Crossings behind `o` are left out.
-    pub fn crossings(&self, tri: &[Vec3; 3]) -> ([(f32, Vec3); 2], usize) {
+    /// §4.3.4–4.3.5, computed as plane/edge intersections), crossings behind `o` left out: the
+    /// smallest and the largest line parameter `s`, each with its boundary point (the same
+    /// crossing twice when there is one), or `None` when there is none. Among equal `s` the
+    /// smallest is the first edge's, the largest the last's.
+    pub fn span(&self, tri: &[Vec3; 3]) -> Option<[(f32, Vec3); 2]> {
+        // The three edges at once, edge `i` (from corner `i` to the next) in SIMD lane `i`, every
+        // lane computed and the results selected (branches on which edges the plane cuts are
+        // unpredictable). Coordinates are relative to `o`.
         let (o, n) = (self.o, self.n);
-        let mut out = [(0.0, Vec3::ZERO); 2];
-        let mut k = 0;
-        let dist = tri.map(|p| n.dot(p - o));
-        for i in 0..3 {
-            let j = (i + 1) % 3;
-            let (di, dj) = (dist[i], dist[j]);
-            if (di > 0.0) == (dj > 0.0) || di == dj {
-                continue;
-            }
-            let x = tri[i] + (tri[j] - tri[i]) * (di / (di - dj));
-            let w = x - o;
-            // `((b - a) × w)·n` and `((a - o) × w)·n` as one dot product each.
-            let den = w.dot(self.nab);
-            if den == 0.0 {
-                continue;
-            }
-            let s = -w.dot(self.na) / den;
-            // The crossing must be in front of `o` along the ray through a + s (b - a).
-            let z = self.a + self.ab * s;
-            if !s.is_finite() || (z - o).dot(w) <= 0.0 {
-                continue;
-            }
-            if k < 2 {
-                out[k] = (s, x);
-                k += 1;
-            }
+        let axis = |k: usize, from: usize| {
+            let c = |i: usize| tri[(from + i) % 3][k] - o[k];
+            Vec4::new(c(0), c(1), c(2), 0.0)
+        };
+        let (px, py, pz) = (axis(0, 0), axis(1, 0), axis(2, 0));
+        let (qx, qy, qz) = (axis(0, 1), axis(1, 1), axis(2, 1));
+        let dot = |v: Vec3A, x: Vec4, y: Vec4, z: Vec4| x * v.x + y * v.y + z * v.z;
+        let (di, dj) = (dot(n, px, py, pz), dot(n, qx, qy, qz));
+        let zero = Vec4::ZERO;
+        let cut = (di.cmpgt(zero) ^ dj.cmpgt(zero)) & di.cmpne(dj);
+        // Where the plane cuts each edge (`w = x - o`).
+        let ratio = di / (di - dj);
+        let (wx, wy, wz) = (px + (qx - px) * ratio, py + (qy - py) * ratio, pz + (qz - pz) * ratio);
+        // `((b - a) × w)·n` and `((a - o) × w)·n` as one dot product each.
+        let den = dot(self.nab, wx, wy, wz);
+        let s = -dot(self.na, wx, wy, wz) / den;
+        // The crossing must be in front of `o` along the ray through a + s (b - a).
+        let ao = self.a - o;
+        let ab = self.ab;
+        let ahead = (ao.x + ab.x * s) * wx + (ao.y + ab.y * s) * wy + (ao.z + ab.z * s) * wz;
+        let ok = cut & den.cmpne(zero) & s.is_finite_mask() & ahead.cmpgt(zero);
+        let lo: [f32; 4] = Vec4::select(ok, s, Vec4::INFINITY).into();
+        let hi: [f32; 4] = Vec4::select(ok, s, Vec4::NEG_INFINITY).into();
+        let (mut first, mut last) = (0, 0);
+        for i in 1..3 {
+            first = if lo[i] < lo[first] { i } else { first };
+            last = if hi[i] >= hi[last] { i } else { last };
         }
-        (out, k)
+        if lo[first] > hi[last] {
+            return None;
+        }
+        let (wx, wy, wz): ([f32; 4], [f32; 4], [f32; 4]) = (wx.into(), wy.into(), wz.into());
+        let point = |i: usize| Vec3::from(o + Vec3A::new(wx[i], wy[i], wz[i]));
+        Some([(lo[first], point(first)), (hi[last], point(last))])
     }
 }
 
@@ -324,12 +337,9 @@ mod tests {
     #[test]
     fn edgepoint_matches_the_digest_example() {
         let tri = [Vec3::new(0.0, -1.0, 3.0), Vec3::new(0.6, 1.0, 3.0), Vec3::new(-0.4, 1.0, 3.0)];
-        let (c, k) =
-            Fan::new(Vec3::ZERO, Vec3::new(-1.0, 0.0, 5.0), Vec3::new(1.0, 0.0, 5.0)).crossings(&tri);
-        assert_eq!(k, 2);
-        let mut s: Vec<f32> = c.iter().map(|x| x.0).collect();
-        s.sort_by(f32::total_cmp);
-        assert!((s[0] - 1.0 / 3.0).abs() < 1e-5 && (s[1] - 0.75).abs() < 1e-5, "{s:?}");
+        let fan = Fan::new(Vec3::ZERO, Vec3::new(-1.0, 0.0, 5.0), Vec3::new(1.0, 0.0, 5.0));
+        let [(s0, _), (s1, _)] = fan.span(&tri).expect("two crossings");
+        assert!((s0 - 1.0 / 3.0).abs() < 1e-5 && (s1 - 0.75).abs() < 1e-5, "{s0} {s1}");
     }
 
     #[test]

@@ -665,8 +665,7 @@ impl<'a> Gvs<'a> {
         let push = |x: Vec3| (0.05 * eps * (x - o).length()).min(0.25 * len) / len;
         let fan = Fan::new(o, a, b);
         if let Some(tri) = self.tris.get(sa.tri as usize) {
-            let (c, k) = fan.crossings(tri);
-            if let Some(&(s, x)) = c[..k].iter().max_by(|p, q| p.0.total_cmp(&q.0)) {
+            if let Some([_, (s, x)]) = fan.span(tri) {
                 let s = s + push(x);
                 if s > 0.0 && s < 1.0 {
                     let m = a + (b - a) * s;
@@ -679,8 +678,7 @@ impl<'a> Gvs<'a> {
             }
         }
         if let Some(tri) = self.tris.get(sb.tri as usize) {
-            let (c, k) = fan.crossings(tri);
-            if let Some(&(s, x)) = c[..k].iter().min_by(|p, q| p.0.total_cmp(&q.0)) {
+            if let Some([(s, x), _]) = fan.span(tri) {
                 let s = s - push(x);
                 if s > 0.0 && s < 1.0 {
                     let m = a + (b - a) * s;
@@ -719,10 +717,12 @@ impl<'a> Gvs<'a> {
         let Some(tri) = self.tris.get(near as usize) else {
             return;
         };
-        let (c, k) = Fan::new(o, e1, e2).crossings(tri);
-        let Some(&(_, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|p, q| p.0.total_cmp(&q.0)) else {
+        let Some([_, (s, x)]) = Fan::new(o, e1, e2).span(tri) else {
             return;
         };
+        if s <= 0.0 {
+            return;
+        }
         let view = x - o;
         let side = (e2 - e1).reject_from(view).normalize_or_zero();
         let x = x + side * (self.p.eps * view.length());

@@ -85,8 +85,9 @@ fn pva_sampling(g: &mut Gvs<'_>, tris: &[[Vec3; 3]], tri: u32, o: Vec3, hit: Vec
     };
     let eps = g.p.eps;
     // The `edgepoint` ray: just past the boundary of `t` from `hit` along `v`.
-    let (c, k) = Fan::new(o, hit, hit + v).crossings(t);
-    if let Some(&(s, x)) = c[..k].iter().filter(|q| q.0 > 0.0).max_by(|a, b| a.0.total_cmp(&b.0)) {
+    if let Some([_, (s, x)]) = Fan::new(o, hit, hit + v).span(t)
+        && s > 0.0
+    {
         let push = eps * (x - o).length() / v.length().max(f32::MIN_POSITIVE);
         let p = hit + v * (s + push);
         let sp = g.handle(o, p - o, Class::Edge);
