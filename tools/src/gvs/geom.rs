@@ -58,6 +58,115 @@ fn radical_inverse_in(mut i: u64, b: u64) -> f32 {
     r as f32
 }
 
+/// Consecutive points of the five-dimensional Halton sequence (bases 2, 3, 5, 7, 11) of
+/// [`Cell::sample_ray`], from a given index on: each point equals `halton(i, b)` in every base,
+/// bit for bit, at an amortised constant cost (the digits of `i` are counted up, not recomputed).
+#[derive(Debug, Clone)]
+pub struct Halton5 {
+    i: u64,
+    dims: [Digits; 5],
+}
+
+/// The digits of an index in one base, for [`Halton5`].
+#[derive(Debug, Clone)]
+struct Digits {
+    b: u64,
+    /// Digits, least significant first, of an index below [`Digits::limit`].
+    d: [u8; 53],
+    /// `pow[k] = b^(len - 1 - k)`, with `b^len` (`scale`) the largest power of `b` exact in `f64`.
+    pow: [u64; 53],
+    scale: f64,
+    /// The digits reversed behind the radix point, times `scale`: `Σ d[k] pow[k]`.
+    num: u64,
+}
+
+impl Digits {
+    fn new(b: u64, i: u64) -> Digits {
+        let mut len = 0;
+        let mut scale = 1u64;
+        while scale <= (1u64 << 53) / b {
+            scale *= b;
+            len += 1;
+        }
+        let mut pow = [0u64; 53];
+        let mut p = 1;
+        for k in (0..len).rev() {
+            pow[k] = p;
+            p *= b;
+        }
+        let mut d = Digits { b, d: [0; 53], pow, scale: scale as f64, num: 0 };
+        d.reset(i);
+        d
+    }
+
+    /// Indices from here on take `radical_inverse_in`'s exact path (see there).
+    fn limit(&self) -> u64 {
+        (1u64 << 53) / self.b
+    }
+
+    fn reset(&mut self, mut i: u64) {
+        self.d = [0; 53];
+        self.num = 0;
+        if i >= self.limit() {
+            return;
+        }
+        let mut k = 0;
+        while i > 0 {
+            self.d[k] = (i % self.b) as u8;
+            self.num += u64::from(self.d[k]) * self.pow[k];
+            i /= self.b;
+            k += 1;
+        }
+    }
+
+    /// From index `i - 1` (below the limit) to `i`.
+    fn increment(&mut self) {
+        let mut k = 0;
+        loop {
+            self.d[k] += 1;
+            self.num += self.pow[k];
+            if u64::from(self.d[k]) < self.b {
+                return;
+            }
+            self.d[k] = 0;
+            self.num -= self.b * self.pow[k];
+            k += 1;
+        }
+    }
+
+    fn value(&self, i: u64) -> f32 {
+        if i < self.limit() {
+            // The same real number as `radical_inverse_in`'s quotient, both exact in `f64`.
+            (self.num as f64 / self.scale) as f32
+        } else {
+            radical_inverse_in(i, self.b)
+        }
+    }
+}
+
+impl Halton5 {
+    /// The sequence from index `i` on.
+    pub fn new(i: u64) -> Halton5 {
+        Halton5 { i, dims: [2, 3, 5, 7, 11].map(|b| Digits::new(b, i)) }
+    }
+
+    /// The point at the current index; then move to the next index (wrapping).
+    pub fn next_point(&mut self) -> [f32; 5] {
+        let i = self.i;
+        let x = self.dims.each_ref().map(|d| d.value(i));
+        let next = i.wrapping_add(1);
+        for d in &mut self.dims {
+            if next < d.limit() && next > 0 {
+                d.increment();
+            } else {
+                d.reset(next);
+            }
+        }
+        self.i = next;
+        x
+    }
+}
+
 impl Cell {
     /// The cell from two corners in any order.
     pub fn new(a: Vec3, b: Vec3) -> Cell {
@@ -101,13 +210,17 @@ impl Cell {
     /// A flat or degenerate cell samples its largest faces; a point cell samples the full sphere.
     pub fn sample_ray(&self, i: u64) -> (Vec3, Vec3) {
         // One call per base, so each divides by a constant (a multiplication).
-        let x: [f32; 5] = [
+        self.ray_at([
             radical_inverse::<2>(i),
             radical_inverse::<3>(i),
             radical_inverse::<5>(i),
             radical_inverse::<7>(i),
             radical_inverse::<11>(i),
-        ];
+        ])
+    }
+
+    /// The ray of [`Cell::sample_ray`] at the Halton point `x` (see [`Halton5`]).
+    pub fn ray_at(&self, x: [f32; 5]) -> (Vec3, Vec3) {
         let d = self.max - self.min;
         let areas = [d.y * d.z, d.y * d.z, d.x * d.z, d.x * d.z, d.x * d.y, d.x * d.y];
         let total: f32 = areas.iter().sum();
@@ -291,6 +404,19 @@ mod tests {
             i = i * 3 + 1;
         }
         assert!(halton(u64::MAX, 11) <= 1.0);
+    }
+
+    #[test]
+    fn halton_sequence_equals_the_indexed_numbers() {
+        let bases = [2, 3, 5, 7, 11];
+        for start in [0u64, 1, 9, 242, 1_000_000, (1 << 53) / 11 - 300, u64::MAX - 40] {
+            let mut seq = Halton5::new(start);
+            for k in 0..600u64 {
+                let i = start.wrapping_add(k);
+                let want = bases.map(|b| halton(i, b).to_bits());
+                assert_eq!(seq.next_point().map(f32::to_bits), want, "index {i}");
+            }
+        }
     }
 
     #[test]

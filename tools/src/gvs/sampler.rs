@@ -1,7 +1,7 @@
 //! Guided visibility sampling of one box view cell (Wonka et al. 2006, with the extensions of the
 //! thesis digested in `reference/seeds/000_gvs_thesis.md`).
 //!
-//! The loop: a quasi-random ray leaves the cell ([`Cell::sample_ray`]); every ray whose first hit
+//! The loop: a quasi-random ray leaves the cell ([`Cell::sample_ray`], through [`Halton5`]); every ray whose first hit
 //! is a triangle not yet in the PVS adds it (with the ray's origin and hit point) and queues it as a
 //! seed. Each seed gets adaptive border sampling (ABS): rays from the seed's origin to the nine
 //! points of the enlarged outline ([`enlarge`]) and along its nine edges, either by recursive
@@ -27,7 +27,7 @@ use glam::Vec3;
 use serde::Serialize;
 use sightline_runtime::bvh::{Bvh, Hit};
 
-use super::geom::{Cell, Fan, enlarge, halton};
+use super::geom::{Cell, Fan, Halton5, enlarge, halton};
 
 /// How ABS samples the edges of the enlarged outline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -340,15 +340,14 @@ impl<'a> Gvs<'a> {
     /// Run until termination: drain the queue, then random rays, checking the window.
     pub(super) fn run(&mut self) {
         // The Halton index starts at the seed (any `u64`, so it wraps past the end).
-        let mut halton_index = self.p.seed.max(1);
+        let mut halton = Halton5::new(self.p.seed.max(1));
         // "first": all the initial random rays before any ABS.
         // They are cast in order of direction (a fixed, stable order): coherent rays traverse the
         // BVH about twice as fast as scattered ones.
         let first = self.p.first.min(self.p.max_random).min(self.p.max_rays);
         if first > 0 {
             let batch: Vec<(Vec3, Vec3)> =
-                (0..first).map(|k| self.cell.sample_ray(halton_index.wrapping_add(k))).collect();
-            halton_index = halton_index.wrapping_add(first);
+                (0..first).map(|_| self.cell.ray_at(halton.next_point())).collect();
             // A counting sort on 16³ direction bins: stable, linear.
             let bin = |d: Vec3| {
                 let q = |x: f32| ((x + 1.0) * 8.0).clamp(0.0, 15.0) as usize;
@@ -391,8 +390,7 @@ impl<'a> Gvs<'a> {
                 self.window_start = self.stats.rays;
                 self.window_new = 0;
             }
-            let (o, d) = self.cell.sample_ray(halton_index);
-            halton_index = halton_index.wrapping_add(1);
+            let (o, d) = self.cell.ray_at(halton.next_point());
             self.handle(o, d, Class::Random);
         }
         if self.p.targets > 0 && !self.out_of_rays() {
