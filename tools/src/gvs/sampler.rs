@@ -662,29 +662,29 @@ impl<'a> Gvs<'a> {
         // segment), in units of the segment.
         let push = |x: Vec3| (0.05 * eps * (x - o).length()).min(0.25 * len) / len;
         let fan = Fan::new(o, a, b);
-        if let Some(tri) = self.tris.get(sa.tri as usize) {
-            if let Some([_, (s, x)]) = fan.span(tri) {
-                let s = s + push(x);
-                if s > 0.0 && s < 1.0 {
-                    let m = a + (b - a) * s;
-                    let sm = self.edge_ray(o, m, e2);
-                    if sm.tri != sa.tri {
-                        self.walk(o, m, sm, b, sb, e2, steps, depth);
-                        return;
-                    }
+        if let Some(tri) = self.tris.get(sa.tri as usize)
+            && let Some([_, (s, x)]) = fan.span(tri)
+        {
+            let s = s + push(x);
+            if s > 0.0 && s < 1.0 {
+                let m = a + (b - a) * s;
+                let sm = self.edge_ray(o, m, e2);
+                if sm.tri != sa.tri {
+                    self.walk(o, m, sm, b, sb, e2, steps, depth);
+                    return;
                 }
             }
         }
-        if let Some(tri) = self.tris.get(sb.tri as usize) {
-            if let Some([(s, x), _]) = fan.span(tri) {
-                let s = s - push(x);
-                if s > 0.0 && s < 1.0 {
-                    let m = a + (b - a) * s;
-                    let sm = self.edge_ray(o, m, e2);
-                    if sm.tri != sb.tri {
-                        self.walk(o, a, sa, m, sm, e2, steps, depth);
-                        return;
-                    }
+        if let Some(tri) = self.tris.get(sb.tri as usize)
+            && let Some([(s, x), _]) = fan.span(tri)
+        {
+            let s = s - push(x);
+            if s > 0.0 && s < 1.0 {
+                let m = a + (b - a) * s;
+                let sm = self.edge_ray(o, m, e2);
+                if sm.tri != sb.tri {
+                    self.walk(o, a, sa, m, sm, e2, steps, depth);
+                    return;
                 }
             }
         }
