@@ -312,7 +312,8 @@ pub fn enlarge(tri: &[Vec3; 3], o: Vec3, eps: f32) -> [Vec3; 9] {
 #[derive(Debug, Clone, Copy)]
 pub struct Fan {
     o: Vec3A,
-    a: Vec3A,
+    /// `a - o` and `b - a`.
+    ao: Vec3A,
     ab: Vec3A,
     /// Normal of the fan's plane, `(a - o) × (b - o)`.
     n: Vec3A,
@@ -326,8 +327,9 @@ impl Fan {
     /// The rays from `o` through the line from `a` (`s = 0`) to `b` (`s = 1`).
     pub fn new(o: Vec3, a: Vec3, b: Vec3) -> Fan {
         let (o, a, b) = (Vec3A::from(o), Vec3A::from(a), Vec3A::from(b));
-        let n = (a - o).cross(b - o);
-        Fan { o, a, ab: b - a, n, na: n.cross(a - o), nab: n.cross(b - a) }
+        let (ao, ab) = (a - o, b - a);
+        let n = ao.cross(b - o);
+        Fan { o, ao, ab, n, na: n.cross(ao), nab: n.cross(ab) }
     }
 
     /// Where the fan's rays cross the boundary of triangle `tri` (thesis `edgepoint`,
@@ -357,8 +359,7 @@ impl Fan {
         let den = dot(self.nab, wx, wy, wz);
         let s = -dot(self.na, wx, wy, wz) / den;
         // The crossing must be in front of `o` along the ray through a + s (b - a).
-        let ao = self.a - o;
-        let ab = self.ab;
+        let (ao, ab) = (self.ao, self.ab);
         let ahead = (ao.x + ab.x * s) * wx + (ao.y + ab.y * s) * wy + (ao.z + ab.z * s) * wz;
         let ok = cut & den.cmpne(zero) & s.is_finite_mask() & ahead.cmpgt(zero);
         let lo: [f32; 4] = Vec4::select(ok, s, Vec4::INFINITY).into();

@@ -25,7 +25,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use sightline_runtime::bvh::{Bvh, Hit};
+use sightline_runtime::bvh::Bvh;
 
 use super::geom::{Cell, Fan, Halton5, enlarge, halton};
 
@@ -204,14 +204,6 @@ pub(super) struct Sample {
     pub(super) t: f32,
 }
 
-/// The sample of the ray `o + t dir` with hit `h`.
-fn sample(o: Vec3, dir: Vec3, h: Option<Hit>) -> Sample {
-    match h {
-        Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t, t: h.t },
-        None => Sample { tri: NONE, pos: o + dir, t: 1.0 },
-    }
-}
-
 /// A queued ABS seed.
 #[derive(Debug, Clone, Copy)]
 struct Seed {
@@ -298,13 +290,6 @@ impl<'a> Gvs<'a> {
 
     /// Cast one ray from `o` towards `target` without touching the PVS.
     pub(super) fn cast(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
-        self.count(class);
-        let h = self.bvh.intersect(o, dir, f32::INFINITY);
-        sample(o, dir, h)
-    }
-
-    /// Count one ray of `class`.
-    fn count(&mut self, class: Class) {
         self.stats.rays += 1;
         match class {
             Class::Random => self.stats.random += 1,
@@ -316,20 +301,19 @@ impl<'a> Gvs<'a> {
             Class::Probe => self.stats.probe += 1,
             Class::Target => self.stats.target += 1,
         }
+        match self.bvh.intersect(o, dir, f32::INFINITY) {
+            Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t, t: h.t },
+            None => Sample { tri: NONE, pos: o + dir, t: 1.0 },
+        }
     }
 
     /// Cast, and add a new triangle to the PVS and the seed queue (`handle_ray`).
     pub(super) fn handle(&mut self, o: Vec3, dir: Vec3, class: Class) -> Sample {
         let s = self.cast(o, dir, class);
-        self.add(o, s);
-        s
-    }
-
-    /// Add the triangle `s` hit from `o`, when new, to the PVS and the seed queue.
-    fn add(&mut self, o: Vec3, s: Sample) {
         if s.tri != NONE && self.insert(s.tri, o, s.pos) {
             self.queue.push_back(Seed { origin: o, tri: s.tri, hit: s.pos });
         }
+        s
     }
 
     /// Queue an existing PVS entry for ABS (incremental update of new triangles).
