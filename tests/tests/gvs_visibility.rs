@@ -1,9 +1,8 @@
 //! GVS end to end: occlusion, small windows, the incremental update, hostile inputs.
 
 use glam::Vec3;
-use sightline::gvs::{self, Cell, Params, Variant, sampler, update};
+use sightline::gvs::{self, Cell, Neighbours, Params, SceneIndex, Variant, sampler, update};
 use sightline::scenegen;
-use sightline_runtime::bvh::Bvh;
 
 /// The rectangle `x = x0`, `y` in `y0..y1`, `z` in `z0..z1`, as a grid of squares about 2 units
 /// wide (two triangles each): tessellated like the surfaces of real scenes.
@@ -60,9 +59,9 @@ fn a_triangle_behind_a_wall_is_never_found() {
     let hidden = tris.len() as u32;
     tris.push(small_triangle(Vec3::new(6.0, 0.0, 0.0), 0.5));
     tris.push(small_triangle(Vec3::new(30.0, 3.0, -2.0), 5.0));
-    let bvh = Bvh::build(&tris);
+    let index = SceneIndex::build(&tris);
     for v in Variant::ALL {
-        let pvs = sampler::run(&tris, &bvh, cell(), v.params(quick()));
+        let pvs = sampler::run(&index, cell(), v.params(quick()));
         let set = pvs.sorted();
         assert!(!set.contains(&hidden), "{}: hidden triangle found", v.name());
         assert!(!set.contains(&(hidden + 1)), "{}: far hidden triangle found", v.name());
@@ -78,9 +77,10 @@ fn a_triangle_seen_through_a_small_window_is_found() {
     wall_x(&mut tris, 40.0, (-80.0, 80.0), (-80.0, 80.0));
     let target = tris.len() as u32;
     tris.push(small_triangle(Vec3::new(20.0, 1.0, 0.5), 0.4));
-    let bvh = Bvh::build(&tris);
+    let index = SceneIndex::build(&tris);
+    let bvh = &index.bvh;
     for v in Variant::ALL {
-        let pvs = sampler::run(&tris, &bvh, cell(), v.params(quick()));
+        let pvs = sampler::run(&index, cell(), v.params(quick()));
         eprintln!("{} {} {:?}", v.name(), pvs.sorted().contains(&target), pvs.stats);
         assert!(pvs.sorted().contains(&target), "{}: target behind the window not found", v.name());
         // Whatever GVS found really is visible: nothing blocks the recorded ray before its hit.
@@ -123,16 +123,15 @@ fn difference(a: &[u32], b: &[u32]) -> f64 {
 #[test]
 fn incremental_update_matches_a_fresh_run_within_sampling_error() {
     let scene = scenegen::city(24, 5);
-    let bvh = Bvh::build(&scene.triangles);
+    let index = SceneIndex::build(&scene.triangles);
     let (lo, hi) = scene.cells[0];
     let cell = Cell::new(lo, hi);
     let p = Variant::ProbeFirstTarget.params(Params { window: 30_000, ..Params::default() });
     let shift = Vec3::new(1.0, 0.5, 0.0);
-    let before = sampler::run(&scene.triangles, &bvh, cell, p);
-    let updated = update::update(&scene.triangles, &bvh, &before, shift, p);
-    let fresh = sampler::run(&scene.triangles, &bvh, cell.translated(shift), p);
-    let fresh2 =
-        sampler::run(&scene.triangles, &bvh, cell.translated(shift), Params { seed: 1_000_003, ..p });
+    let before = sampler::run(&index, cell, p);
+    let updated = update::update(&index, &before, shift, p);
+    let fresh = sampler::run(&index, cell.translated(shift), p);
+    let fresh2 = sampler::run(&index, cell.translated(shift), Params { seed: 1_000_003, ..p });
     let d_update = difference(&updated.sorted(), &fresh.sorted());
     let d_seeds = difference(&fresh2.sorted(), &fresh.sorted());
     eprintln!(
@@ -152,14 +151,17 @@ fn incremental_update_matches_a_fresh_run_within_sampling_error() {
 #[test]
 fn results_are_deterministic_across_thread_counts() {
     let scene = scenegen::spheres(60, true, 9);
-    let bvh = Bvh::build(&scene.triangles);
     let cells: Vec<Cell> = (0..4)
         .map(|i| Cell::new(Vec3::splat(18.0 + i as f32 * 0.5), Vec3::splat(19.0 + i as f32 * 0.5)))
         .collect();
-    let p = Params { window: 5_000, ..Params::default() };
+    // Probing, so that the neighbour table (built in parallel too) is read.
+    let p = Variant::ProbeFirstTarget.params(Params { window: 5_000, first: 2_000, ..Params::default() });
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
-        pool.install(|| gvs::run_cells(&scene.triangles, &bvh, &cells, p, &|| {}))
+        pool.install(|| {
+            let index = SceneIndex::build(&scene.triangles);
+            gvs::run_cells(&index, &cells, p, &|| {})
+        })
     };
     let a: Vec<Vec<u32>> = run(1).iter().map(|p| p.entries.iter().map(|e| e.tri).collect()).collect();
     let b: Vec<Vec<u32>> = run(2).iter().map(|p| p.entries.iter().map(|e| e.tri).collect()).collect();
@@ -228,12 +230,29 @@ fn target_sampling_finds_a_small_isolated_triangle() {
     // A wall behind the cell keeps ABS busy; its triangles are far from the target, so the BVH
     // groups them apart from it.
     wall_x(&mut tris, -30.0, (-40.0, 40.0), (-40.0, 40.0));
-    let bvh = Bvh::build(&tris);
+    let index = SceneIndex::build(&tris);
     let few = Params { max_random: 3_000, window: 2_000, first: 1_000, ..Params::default() };
-    let stock = sampler::run(&tris, &bvh, cell(), Variant::ProbeFirst.params(few));
+    let stock = sampler::run(&index, cell(), Variant::ProbeFirst.params(few));
     assert!(!stock.sorted().contains(&0), "premise: random rays alone found it");
-    let target = sampler::run(&tris, &bvh, cell(), Variant::ProbeFirstTarget.params(few));
+    let target = sampler::run(&index, cell(), Variant::ProbeFirstTarget.params(few));
     assert!(target.sorted().contains(&0), "target sampling missed it: {:?}", target.stats);
     // Only groups without a PVS triangle get target rays, two each.
     assert!(target.stats.target > 0 && target.stats.target <= 2 * 4, "{:?}", target.stats);
+}
+
+/// The neighbour table only saves BVH queries: probing through it finds the same PVS, ray for ray,
+/// as probing through the BVH (an empty table answers every triangle with "query the BVH").
+#[test]
+fn the_neighbour_table_changes_nothing_but_speed() {
+    let scene = scenegen::spheres(60, true, 9);
+    let index = SceneIndex::build(&scene.triangles);
+    let without = SceneIndex { neighbours: Neighbours::default(), ..index.clone() };
+    let cell = Cell::new(Vec3::splat(18.0), Vec3::splat(19.0));
+    let p = Variant::ProbeFirstTarget.params(Params { window: 5_000, first: 2_000, ..Params::default() });
+    let (a, b) = (sampler::run(&index, cell, p), sampler::run(&without, cell, p));
+    assert!(a.stats.probe > 0, "premise: nothing was probed");
+    let rays =
+        |p: &sightline::gvs::Pvs| p.entries.iter().map(|e| (e.tri, e.origin, e.hit)).collect::<Vec<_>>();
+    assert_eq!(rays(&a), rays(&b));
+    assert_eq!((a.stats.rays, a.stats.probe), (b.stats.rays, b.stats.probe));
 }

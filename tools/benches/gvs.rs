@@ -6,7 +6,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use sightline::gvs::{Cell, Params, Variant, sampler};
+use sightline::gvs::{Cell, Neighbours, Params, SceneIndex, Variant, sampler};
 use sightline::scenegen::{self, Rng};
 use sightline_runtime::bvh::Bvh;
 use std::hint::black_box;
@@ -27,7 +27,11 @@ fn bench(c: &mut Criterion) {
     g.bench_function(format!("build city:100 ({} triangles)", scene.triangles.len()), |b| {
         b.iter(|| black_box(Bvh::build(&scene.triangles)))
     });
-    let bvh = Bvh::build(&scene.triangles);
+    let city_index = SceneIndex::build(&scene.triangles);
+    let bvh = &city_index.bvh;
+    g.bench_function(format!("neighbour table city:100 ({} triangles)", scene.triangles.len()), |b| {
+        b.iter(|| black_box(Neighbours::build(&scene.triangles, bvh).bytes()))
+    });
     // Eye-level rays from the street cell (as the error metric casts them) and GVS-style rays
     // leaving the cell surface in every direction.
     let mut rng = Rng::new(3);
@@ -63,14 +67,15 @@ fn bench(c: &mut Criterion) {
     // in the caches.
     let spheres = scenegen::spheres(SPHERES, false, 1);
     let sphere_cell = Cell::new(spheres.cells[0].0, spheres.cells[0].1);
-    let sphere_bvh = Bvh::build(&spheres.triangles);
+    let sphere_index = SceneIndex::build(&spheres.triangles);
+    let sphere_bvh = &sphere_index.bvh;
     let dense = scenegen::spheres(THESIS_SPHERES, false, 1);
     let dense_bvh = Bvh::build(&dense.triangles);
     let mut g = c.benchmark_group("bvh spheres");
     g.sample_size(10);
     g.throughput(Throughput::Elements(RAYS as u64));
     for (n, cell, bvh) in [
-        (SPHERES, sphere_cell, &sphere_bvh),
+        (SPHERES, sphere_cell, sphere_bvh),
         (THESIS_SPHERES, Cell::new(dense.cells[0].0, dense.cells[0].1), &dense_bvh),
     ] {
         let rays: Vec<(Vec3, Vec3)> = (1..=RAYS as u64).map(|i| cell.sample_ray(i)).collect();
@@ -86,13 +91,12 @@ fn bench(c: &mut Criterion) {
     // second on one core, bookkeeping included.
     let mut g = c.benchmark_group("gvs");
     g.sample_size(10);
-    let scenes = [
-        ("city:100 street cell", &scene.triangles, &bvh, cell),
-        ("spheres:1000 cell", &spheres.triangles, &sphere_bvh, sphere_cell),
-    ];
-    for (name, tris, bvh, cell) in scenes {
+    // The scene indexes (BVH and neighbour table) are built once per scene, outside the timing.
+    let scenes =
+        [("city:100 street cell", &city_index, cell), ("spheres:1000 cell", &sphere_index, sphere_cell)];
+    for (name, index, cell) in scenes {
         for v in [Variant::Stock, Variant::EdgePoint, Variant::Silhouette, Variant::ProbeFirstTarget] {
-            let run = || sampler::run(tris, bvh, cell, v.params(Params::default()));
+            let run = || sampler::run(index, cell, v.params(Params::default()));
             g.throughput(Throughput::Elements(run().stats.rays));
             g.bench_function(format!("{} {name}", v.name()), |b| b.iter(|| black_box(run().entries.len())));
         }

@@ -19,7 +19,7 @@ use sightline_runtime::bvh::Bvh;
 
 use crate::cli::Outcome;
 use crate::gvs::scene::{self, TriScene};
-use crate::gvs::{self, Cell, Params, Pvs, Stats, Variant, error, update};
+use crate::gvs::{self, Cell, Neighbours, Params, Pvs, SceneIndex, Stats, Variant, error, update};
 use crate::progress;
 use crate::scenegen;
 
@@ -154,6 +154,8 @@ struct Report {
     cells: usize,
     bvh_build_seconds: f64,
     bvh_nodes: usize,
+    neighbours_build_seconds: f64,
+    neighbours_bytes: usize,
     params: Params,
     rows: Vec<Row>,
     error_views: usize,
@@ -197,19 +199,31 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let bvh = Bvh::build(&scene.triangles);
     let bvh_seconds = t0.elapsed().as_secs_f64();
+    let variants: Vec<Variant> =
+        if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
+    let t0 = Instant::now();
+    // Only probing reads the table (without it, `Neighbours::of` answers `None` and probing
+    // would query the BVH).
+    let neighbours = if variants.iter().any(|v| v.params(params).probe) {
+        Neighbours::build(&scene.triangles, &bvh)
+    } else {
+        Neighbours::default()
+    };
+    let neighbours_seconds = t0.elapsed().as_secs_f64();
     if !args.json {
         eprintln!(
-            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s",
+            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s, neighbour table {:.1} MB in {:.2} s",
             args.input,
             scene.triangles.len(),
             cells.len(),
             bvh.node_count(),
-            bvh_seconds
+            bvh_seconds,
+            neighbours.bytes() as f64 / 1e6,
+            neighbours_seconds
         );
     }
+    let index = SceneIndex { tris: &scene.triangles, bvh, neighbours };
 
-    let variants: Vec<Variant> =
-        if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
     let mut rows = Vec::new();
     // Per variant: the cells' results and the process CPU seconds their run took.
     let mut results: Vec<(Variant, Vec<Pvs>, Option<f64>)> = Vec::new();
@@ -217,7 +231,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         let bar = progress::bar(v.name(), cells.len() as u64, args.json);
         let p = v.params(params);
         let cpu0 = cpu_seconds();
-        let pvs = gvs::run_cells(&scene.triangles, &bvh, &cells, p, &|| bar.inc(1));
+        let pvs = gvs::run_cells(&index, &cells, p, &|| bar.inc(1));
         let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
         bar.finish_and_clear();
         results.push((v, pvs, cpu));
@@ -234,7 +248,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             .iter()
             .map(|view| {
                 error_rays.fetch_add((args.res * args.res) as u64, Ordering::Relaxed);
-                error::id_buffer(&bvh, view, args.res, args.fov)
+                error::id_buffer(&index.bvh, view, args.res, args.fov)
             })
             .collect()
     };
@@ -278,11 +292,11 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         if let Some(prev) = prev {
             let moved: Vec<Cell> = cells.iter().map(|c| c.translated(shift)).collect();
             let cpu0 = cpu_seconds();
-            let fresh = gvs::run_cells(&scene.triangles, &bvh, &moved, base, &|| {});
+            let fresh = gvs::run_cells(&index, &moved, base, &|| {});
             let cpu1 = cpu_seconds();
             let updated: Vec<Pvs> = {
                 use rayon::prelude::*;
-                prev.par_iter().map(|p| update::update(&scene.triangles, &bvh, p, shift, base)).collect()
+                prev.par_iter().map(|p| update::update(&index, p, shift, base)).collect()
             };
             let (cpu_fresh, cpu_update) =
                 (cpu1.zip(cpu0).map(|(b, a)| b - a), cpu_seconds().zip(cpu1).map(|(b, a)| b - a));
@@ -321,7 +335,9 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         triangles: scene.triangles.len(),
         cells: cells.len(),
         bvh_build_seconds: bvh_seconds,
-        bvh_nodes: bvh.node_count(),
+        bvh_nodes: index.bvh.node_count(),
+        neighbours_build_seconds: neighbours_seconds,
+        neighbours_bytes: index.neighbours.bytes(),
         params,
         rows,
         error_views: if measure_on { args.views * measured.len() } else { 0 },
@@ -471,11 +487,12 @@ fn print_missed(
 
 fn print_table(r: &Report) {
     println!(
-        "{}: {} triangles, {} cells, BVH {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
+        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
         r.scene,
         r.triangles,
         r.cells,
         r.bvh_build_seconds,
+        r.neighbours_build_seconds,
         r.error_views,
         r.error_res,
         r.error_res,

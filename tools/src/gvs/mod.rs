@@ -4,6 +4,7 @@
 //! - [`geom`]: cells and their ray sampler, Halton numbers, the enlarged outline, `edgepoint`.
 //! - [`sampler`]: the algorithm for one cell ([`sampler::run`]) with its [`Params`].
 //! - [`update`]: the incremental update of a PVS when its cell moves.
+//! - [`neighbours`]: the per-scene neighbour table of neighbour probing.
 //! - [`error`]: the thesis' wrong-pixel metric from ID buffers.
 //! - [`scene`]: triangle scenes from generators, `.obj` and levels.
 //!
@@ -13,6 +14,7 @@
 
 pub mod error;
 pub mod geom;
+pub mod neighbours;
 pub mod sampler;
 pub mod scene;
 pub mod update;
@@ -24,7 +26,29 @@ use sightline_formats::{Face, GvsCell, Level, LevelPlane};
 use sightline_runtime::bvh::Bvh;
 
 pub use geom::Cell;
+pub use neighbours::Neighbours;
 pub use sampler::{EdgeMode, Params, Pvs, Stats};
+
+/// A triangle soup prepared for sampling, once per scene (like the BVH, outside the cells'
+/// timing): its BVH and its neighbour table.
+#[derive(Debug, Clone)]
+pub struct SceneIndex<'a> {
+    /// The triangles.
+    pub tris: &'a [[Vec3; 3]],
+    /// Their BVH.
+    pub bvh: Bvh,
+    /// Their neighbour table (for probing).
+    pub neighbours: Neighbours,
+}
+
+impl<'a> SceneIndex<'a> {
+    /// Build the BVH and the neighbour table of `tris`.
+    pub fn build(tris: &'a [[Vec3; 3]]) -> SceneIndex<'a> {
+        let bvh = Bvh::build(tris);
+        let neighbours = Neighbours::build(tris, &bvh);
+        SceneIndex { tris, bvh, neighbours }
+    }
+}
 
 /// The configurations compared by `sightline gvs --compare`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -112,8 +136,7 @@ pub const TARGETS_DEFAULT: u32 = 2;
 
 /// Run GVS on every cell, in parallel over cells; `progress` is called once per finished cell.
 pub fn run_cells(
-    tris: &[[Vec3; 3]],
-    bvh: &Bvh,
+    index: &SceneIndex,
     cells: &[Cell],
     params: Params,
     progress: &(dyn Fn() + Sync),
@@ -123,7 +146,7 @@ pub fn run_cells(
         .enumerate()
         .map(|(i, &cell)| {
             let p = Params { seed: params.seed.wrapping_add(i as u64 * 7919), ..params };
-            let pvs = sampler::run(tris, bvh, cell, p);
+            let pvs = sampler::run(index, cell, p);
             progress();
             pvs
         })

@@ -27,6 +27,9 @@ use glam::Vec3;
 use serde::Serialize;
 use sightline_runtime::bvh::Bvh;
 
+use super::SceneIndex;
+use super::neighbours::{Neighbours, touching_box};
+
 use super::geom::{Cell, Fan, Halton5, enlarge, halton};
 
 /// How ABS samples the edges of the enlarged outline.
@@ -228,6 +231,7 @@ const WALK_STEPS: u32 = 64;
 pub(super) struct Gvs<'a> {
     tris: &'a [[Vec3; 3]],
     bvh: &'a Bvh,
+    neighbours: &'a Neighbours,
     pub(super) cell: Cell,
     pub(super) p: Params,
     in_pvs: Vec<u64>,
@@ -246,10 +250,12 @@ pub(super) struct Gvs<'a> {
 }
 
 impl<'a> Gvs<'a> {
-    pub(super) fn new(tris: &'a [[Vec3; 3]], bvh: &'a Bvh, cell: Cell, p: Params) -> Gvs<'a> {
+    pub(super) fn new(index: &'a SceneIndex, cell: Cell, p: Params) -> Gvs<'a> {
+        let tris = index.tris;
         Gvs {
             tris,
-            bvh,
+            bvh: &index.bvh,
+            neighbours: &index.neighbours,
             cell,
             p,
             in_pvs: vec![0; tris.len().div_ceil(64)],
@@ -467,53 +473,62 @@ impl<'a> Gvs<'a> {
             return;
         }
         *state |= EXPANDED;
-        let lo = tri[0].min(tri[1]).min(tri[2]);
-        let hi = tri[0].max(tri[1]).max(tri[2]);
-        // Touching boxes: a relative margin absorbs rounding of shared vertices.
-        let margin =
-            1e-4 * (hi - lo).max_element() + 4.0 * f32::EPSILON * lo.abs().max(hi.abs()).max_element();
-        let mut cand = std::mem::take(&mut self.candidates);
-        cand.clear();
-        self.bvh.overlapping(lo - margin, hi + margin, |u| cand.push(u));
-        for &u in &cand {
-            if self.has(u) || self.out_of_rays() {
-                continue;
+        let table = self.neighbours;
+        if let Some(list) = table.of(t) {
+            for &u in list {
+                self.probe(u);
             }
-            let (Some(state), Some(ut)) = (self.probe_state.get_mut(u as usize), self.tris.get(u as usize))
-            else {
-                continue;
-            };
-            if *state & PROBED != 0 {
-                continue;
+        } else {
+            // Crowded: the table leaves its neighbours to the BVH.
+            let mut cand = std::mem::take(&mut self.candidates);
+            cand.clear();
+            let (lo, hi) = touching_box(tri);
+            self.bvh.overlapping(lo, hi, |u| cand.push(u));
+            for &u in &cand {
+                self.probe(u);
             }
-            *state |= PROBED;
-            let n = (ut[1] - ut[0]).cross(ut[2] - ut[0]);
-            let centre = (ut[0] + ut[1] + ut[2]) / 3.0;
-            let corners = self.cell.corners();
-            let side = corners.map(|c| n.dot(c - ut[0]));
-            let (mut kmax, mut kmin) = (0, 0);
-            for k in 1..8 {
-                if side[k] > side[kmax] {
-                    kmax = k;
-                }
-                if side[k] < side[kmin] {
-                    kmin = k;
-                }
+            self.candidates = cand;
+        }
+    }
+
+    /// Probe the neighbour `u` once (see [`Gvs::probe_neighbours`]), unless it is in the PVS.
+    fn probe(&mut self, u: u32) {
+        if self.has(u) || self.out_of_rays() {
+            return;
+        }
+        let (Some(state), Some(ut)) = (self.probe_state.get_mut(u as usize), self.tris.get(u as usize))
+        else {
+            return;
+        };
+        if *state & PROBED != 0 {
+            return;
+        }
+        *state |= PROBED;
+        let n = (ut[1] - ut[0]).cross(ut[2] - ut[0]);
+        let centre = (ut[0] + ut[1] + ut[2]) / 3.0;
+        let corners = self.cell.corners();
+        let side = corners.map(|c| n.dot(c - ut[0]));
+        let (mut kmax, mut kmin) = (0, 0);
+        for k in 1..8 {
+            if side[k] > side[kmax] {
+                kmax = k;
             }
-            // In front: the corner furthest in front, then the cell's centre and the three corners
-            // next to the first (when in front too), until one sees it. Behind: one ray.
-            let centre_cell = self.cell.centre();
-            let front = [corners[kmax], centre_cell, corners[kmax ^ 1], corners[kmax ^ 2], corners[kmax ^ 4]];
-            for c in front.into_iter().chain(std::iter::once(corners[kmin])) {
-                let s = n.dot(c - ut[0]);
-                let behind = c == corners[kmin];
-                if (behind && s >= 0.0) || (!behind && s <= 0.0) || self.has(u) || self.out_of_rays() {
-                    continue;
-                }
-                self.handle(c, centre - c, Class::Probe);
+            if side[k] < side[kmin] {
+                kmin = k;
             }
         }
-        self.candidates = cand;
+        // In front: the corner furthest in front, then the cell's centre and the three corners
+        // next to the first (when in front too), until one sees it. Behind: one ray.
+        let centre_cell = self.cell.centre();
+        let front = [corners[kmax], centre_cell, corners[kmax ^ 1], corners[kmax ^ 2], corners[kmax ^ 4]];
+        for c in front.into_iter().chain(std::iter::once(corners[kmin])) {
+            let s = n.dot(c - ut[0]);
+            let behind = c == corners[kmin];
+            if (behind && s >= 0.0) || (!behind && s <= 0.0) || self.has(u) || self.out_of_rays() {
+                continue;
+            }
+            self.handle(c, centre - c, Class::Probe);
+        }
     }
 
     /// Corner re-seeding (this project's extension, "sil"): an outline point whose ray escaped or
@@ -719,10 +734,10 @@ impl<'a> Gvs<'a> {
     }
 }
 
-/// Run GVS for `cell` over `tris` (indexed by `bvh`).
-pub fn run(tris: &[[Vec3; 3]], bvh: &Bvh, cell: Cell, params: Params) -> Pvs {
+/// Run GVS for `cell` over the triangles of `index`.
+pub fn run(index: &SceneIndex, cell: Cell, params: Params) -> Pvs {
     let start = Instant::now();
-    let mut g = Gvs::new(tris, bvh, cell, params);
+    let mut g = Gvs::new(index, cell, params);
     g.run();
     g.stats.seconds = start.elapsed().as_secs_f64();
     Pvs { cell, entries: g.entries, stats: g.stats }

@@ -23,18 +23,19 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use sightline_runtime::bvh::Bvh;
 
+use super::SceneIndex;
 use super::geom::Fan;
 use super::sampler::{Class, Gvs, Params, Pvs};
 
 /// The PVS of `prev.cell` moved by `v`, reusing `prev`.
-pub fn update(tris: &[[Vec3; 3]], bvh: &Bvh, prev: &Pvs, v: Vec3, params: Params) -> Pvs {
+pub fn update(index: &SceneIndex, prev: &Pvs, v: Vec3, params: Params) -> Pvs {
+    let tris = index.tris;
     let start = Instant::now();
     let cell = prev.cell.translated(v);
     let old = prev.bitset(tris.len());
     let was_in = |t: u32| old.get(t as usize / 64).is_some_and(|w| w & (1 << (t % 64)) != 0);
-    let mut g = Gvs::new(tris, bvh, cell, params);
+    let mut g = Gvs::new(index, cell, params);
     let mut still = Vec::new();
     for e in &prev.entries {
         // The old ray where its origin is still in the new cell (the overlap of the two cells),
