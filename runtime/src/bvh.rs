@@ -437,8 +437,9 @@ impl Bvh {
     }
 
     /// Call `f` with the index (in the build slice) of every triangle whose bounding box overlaps
-    /// the box `min..max` (closed boxes: touching counts), in a fixed order.
-    pub fn overlapping(&self, min: Vec3, max: Vec3, f: impl FnMut(u32)) {
+    /// the box `min..max` (closed boxes: touching counts), in a fixed order, until `f` returns
+    /// false.
+    pub fn overlapping(&self, min: Vec3, max: Vec3, f: impl FnMut(u32) -> bool) {
         if self.deep {
             self.overlapping_in::<STACK_DEEP>(min, max, f);
         } else {
@@ -449,7 +450,7 @@ impl Bvh {
     /// [`Bvh::overlapping`] through the 4-wide tree (four child boxes, then four triangle boxes, per
     /// SIMD test), children in lane order: the binary tree's left-to-right order, so triangles come
     /// in build order. `N` is a stack of at least the tree's need (as in `walk`).
-    fn overlapping_in<const N: usize>(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32)) {
+    fn overlapping_in<const N: usize>(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32) -> bool) {
         let Some(root) = self.nodes.first() else {
             return;
         };
@@ -479,8 +480,10 @@ impl Bvh {
                     let mut mask = meets(lo, hi) & ((1 << b.n) - 1);
                     while mask != 0 {
                         let k = b.first as usize + mask.trailing_zeros() as usize;
-                        if let Some(&id) = self.ids.get(k) {
-                            f(id);
+                        if let Some(&id) = self.ids.get(k)
+                            && !f(id)
+                        {
+                            return;
                         }
                         mask &= mask - 1;
                     }
@@ -955,8 +958,19 @@ mod tests {
         ) {
             let bvh = Bvh::build(&tris);
             let (lo, hi) = (Vec3::new(cx, cy, cz) - r, Vec3::new(cx, cy, cz) + r);
-            let mut got = Vec::new();
-            bvh.overlapping(lo, hi, |t| got.push(t));
+            let mut all = Vec::new();
+            bvh.overlapping(lo, hi, |t| {
+                all.push(t);
+                true
+            });
+            // Stopping early gives a prefix of the same order.
+            let mut first = Vec::new();
+            bvh.overlapping(lo, hi, |t| {
+                first.push(t);
+                first.len() < 3
+            });
+            prop_assert_eq!(&first[..], &all[..all.len().min(3)]);
+            let mut got = all;
             got.sort_unstable();
             let want: Vec<u32> = (0..tris.len() as u32)
                 .filter(|&i| {

@@ -483,7 +483,10 @@ impl<'a> Gvs<'a> {
             let mut cand = std::mem::take(&mut self.candidates);
             cand.clear();
             let (lo, hi) = touching_box(tri);
-            self.bvh.overlapping(lo, hi, |u| cand.push(u));
+            self.bvh.overlapping(lo, hi, |u| {
+                cand.push(u);
+                true
+            });
             for &u in &cand {
                 self.probe(u);
             }
