@@ -436,8 +436,6 @@ impl Bvh {
         if self.ids.is_empty() {
             return;
         }
-        // A subtree's triangles are contiguous. Children come after their parent in `nodes`, so
-        // one backward pass gives every subtree's range.
         let range = subtree_ranges(&self.nodes);
         let mut stack = [0u32; STACK];
         let mut sp = 1usize;

@@ -473,25 +473,25 @@ impl<'a> Gvs<'a> {
             return;
         }
         *state |= EXPANDED;
+        // The table's row, or (a crowded triangle) the BVH query it stands for.
         let table = self.neighbours;
-        if let Some(list) = table.of(t) {
-            for &u in list {
-                self.probe(u);
+        let mut cand = std::mem::take(&mut self.candidates);
+        cand.clear();
+        let list = match table.of(t) {
+            Some(row) => row,
+            None => {
+                let (lo, hi) = touching_box(tri);
+                self.bvh.overlapping(lo, hi, |u| {
+                    cand.push(u);
+                    true
+                });
+                &cand[..]
             }
-        } else {
-            // Crowded: the table leaves its neighbours to the BVH.
-            let mut cand = std::mem::take(&mut self.candidates);
-            cand.clear();
-            let (lo, hi) = touching_box(tri);
-            self.bvh.overlapping(lo, hi, |u| {
-                cand.push(u);
-                true
-            });
-            for &u in &cand {
-                self.probe(u);
-            }
-            self.candidates = cand;
+        };
+        for &u in list {
+            self.probe(u);
         }
+        self.candidates = cand;
     }
 
     /// Probe the neighbour `u` once (see [`Gvs::probe_neighbours`]), unless it is in the PVS.
