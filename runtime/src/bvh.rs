@@ -25,7 +25,9 @@
 use glam::{Vec3, Vec3A, Vec4};
 
 mod packet;
+mod stack;
 pub use packet::LANES;
+use stack::Stack;
 
 /// Most triangles in one leaf.
 pub const MAX_LEAF: usize = 4;
@@ -484,8 +486,7 @@ impl Bvh {
                 & hi[2].cmpge(z0))
             .bitmask()
         };
-        let mut stack = [(0u32, 0u32); N];
-        let mut sp = 0usize;
+        let mut stack = Stack::<(u32, u32), N>::new();
         // The root: a leaf (its blocks start at 0), or quad 0.
         let (mut first, mut count) = (0, root.count());
         loop {
@@ -512,9 +513,8 @@ impl Bvh {
                 if mask != 0 {
                     // The first lane now, the others (last lane deepest) later.
                     for i in (mask.trailing_zeros() as usize + 1..4).rev() {
-                        if mask & (1 << i) != 0 && sp < N {
-                            stack[sp] = (q.first[i], q.count[i]);
-                            sp += 1;
+                        if mask & (1 << i) != 0 {
+                            stack.push((q.first[i], q.count[i]));
                         }
                     }
                     let i = mask.trailing_zeros() as usize;
@@ -522,11 +522,10 @@ impl Bvh {
                     continue;
                 }
             }
-            if sp == 0 {
+            let Some(next) = stack.pop() else {
                 return;
-            }
-            sp -= 1;
-            (first, count) = stack[sp];
+            };
+            (first, count) = next;
         }
     }
 
@@ -575,8 +574,7 @@ impl Bvh {
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
         // Stack of (first, count, entry distance) of children still to visit.
-        let mut stack = [(0u32, 0u32, 0f32); N];
-        let mut sp = 0usize;
+        let mut stack = Stack::<(u32, u32, f32), N>::new();
         box_hit(&self.nodes[0], o, inv, t_best)?;
         // The root: a leaf (its blocks start at 0), or quad 0.
         let (mut first, mut count) = (0, self.nodes[0].count());
@@ -618,10 +616,7 @@ impl Bvh {
                     }
                     for &i in lanes[1..n].iter().rev() {
                         // `N` is at least the tree's need (`collapse`).
-                        if sp < N {
-                            stack[sp] = (q.first[i], q.count[i], d[i]);
-                            sp += 1;
-                        }
+                        stack.push((q.first[i], q.count[i], d[i]));
                     }
                     (first, count) = (q.first[lanes[0]], q.count[lanes[0]]);
                     continue;
@@ -629,11 +624,9 @@ impl Bvh {
             }
             // Pop, skipping children that the current best hit already rules out.
             loop {
-                if sp == 0 {
+                let Some((f, c, t_enter)) = stack.pop() else {
                     return best;
-                }
-                sp -= 1;
-                let (f, c, t_enter) = stack[sp];
+                };
                 if t_enter <= t_best {
                     (first, count) = (f, c);
                     break;
