@@ -236,8 +236,34 @@ fn target_sampling_finds_a_small_isolated_triangle() {
     assert!(!stock.sorted().contains(&0), "premise: random rays alone found it");
     let target = sampler::run(&index, cell(), Variant::ProbeFirstTarget.params(few));
     assert!(target.sorted().contains(&0), "target sampling missed it: {:?}", target.stats);
-    // Only groups without a PVS triangle get target rays, two each.
-    assert!(target.stats.target > 0 && target.stats.target <= 2 * 4, "{:?}", target.stats);
+    // Only the lone triangle's component is unreached: at most `targets` rays at it.
+    assert!(target.stats.target > 0 && target.stats.target <= 4, "{:?}", target.stats);
+}
+
+#[test]
+fn target_sampling_finds_a_lone_triangle_beside_a_found_surface() {
+    // A small wall far away that random rays do hit, and beside it (apart: not a neighbour, so
+    // probing never tries it) a lone small triangle that they do not; both land in one BVH group,
+    // which is therefore reached. The lone triangle is its own surface component, unreached.
+    let mut tris = Vec::new();
+    wall_x(&mut tris, 200.0, (0.0, 8.0), (0.0, 8.0));
+    let patch = tris.len() as u32;
+    let lone = tris.len() as u32;
+    tris.push(small_triangle(Vec3::new(200.0, 12.0, 4.0), 0.3));
+    wall_x(&mut tris, -30.0, (-40.0, 40.0), (-40.0, 40.0));
+    let index = SceneIndex::build(&tris);
+    assert_ne!(index.components.of(lone), index.components.of(0));
+    let p = Params { window: 5_000, ..Params::default() };
+    let found =
+        |pvs: &sightline::gvs::Pvs| (pvs.sorted().contains(&lone), pvs.sorted().iter().any(|&t| t < patch));
+    let plain = sampler::run(&index, cell(), Variant::ProbeFirst.params(p));
+    assert_eq!(found(&plain), (false, true), "premise: random rays find the patch, not the lone triangle");
+    // Without the components, target sampling only aims at groups with nothing found.
+    let groups_only = SceneIndex { components: gvs::Components::default(), ..index.clone() };
+    let old = sampler::run(&groups_only, cell(), Variant::ProbeFirstTarget.params(p));
+    assert_eq!(found(&old), (false, true), "premise: the patch's group is reached");
+    let target = sampler::run(&index, cell(), Variant::ProbeFirstTarget.params(p));
+    assert_eq!(found(&target), (true, true), "{:?}", target.stats);
 }
 
 /// The neighbour table only saves BVH queries: probing through it finds the same PVS, ray for ray,

@@ -19,7 +19,9 @@ use sightline_runtime::bvh::Bvh;
 
 use crate::cli::Outcome;
 use crate::gvs::scene::{self, TriScene};
-use crate::gvs::{self, Cell, Neighbours, Params, Pvs, SceneIndex, Stats, Variant, error, update};
+use crate::gvs::{
+    self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, Variant, error, update,
+};
 use crate::progress;
 use crate::scenegen;
 
@@ -85,7 +87,8 @@ pub struct Args {
     /// Initial random rays of the "first" variants (default 100000).
     #[arg(long)]
     pub first: Option<u64>,
-    /// Rays per unexplored triangle group of the "target" variant (default 2).
+    /// Triangles aimed at per unreached triangle group, and rays per such triangle, of the
+    /// "target" variant (default 4).
     #[arg(long)]
     pub targets: Option<u32>,
     /// Edge-point walk without the forced midpoint ray.
@@ -156,6 +159,8 @@ struct Report {
     bvh_nodes: usize,
     neighbours_build_seconds: f64,
     neighbours_bytes: usize,
+    components_build_seconds: f64,
+    components: usize,
     params: Params,
     rows: Vec<Row>,
     error_views: usize,
@@ -210,19 +215,29 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         Neighbours::default()
     };
     let neighbours_seconds = t0.elapsed().as_secs_f64();
+    // Only target sampling reads the components (without them it falls back to whole groups).
+    let t0 = Instant::now();
+    let components = if variants.iter().any(|v| v.params(params).targets > 0) {
+        Components::build(&scene.triangles)
+    } else {
+        Components::default()
+    };
+    let components_seconds = t0.elapsed().as_secs_f64();
     if !args.json {
         eprintln!(
-            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s, neighbour table {:.1} MB in {:.2} s",
+            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s, neighbour table {:.1} MB in {:.2} s, {} surface components in {:.2} s",
             args.input,
             scene.triangles.len(),
             cells.len(),
             bvh.node_count(),
             bvh_seconds,
             neighbours.bytes() as f64 / 1e6,
-            neighbours_seconds
+            neighbours_seconds,
+            components.count(),
+            components_seconds
         );
     }
-    let index = SceneIndex { tris: &scene.triangles, bvh, neighbours };
+    let index = SceneIndex { tris: &scene.triangles, bvh, neighbours, components };
 
     let mut rows = Vec::new();
     // Per variant: the cells' results and the process CPU seconds their run took.
@@ -338,6 +353,8 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         bvh_nodes: index.bvh.node_count(),
         neighbours_build_seconds: neighbours_seconds,
         neighbours_bytes: index.neighbours.bytes(),
+        components_build_seconds: components_seconds,
+        components: index.components.count(),
         params,
         rows,
         error_views: if measure_on { args.views * measured.len() } else { 0 },
@@ -487,12 +504,13 @@ fn print_missed(
 
 fn print_table(r: &Report) {
     println!(
-        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
+        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
         r.scene,
         r.triangles,
         r.cells,
         r.bvh_build_seconds,
         r.neighbours_build_seconds,
+        r.components_build_seconds,
         r.error_views,
         r.error_res,
         r.error_res,

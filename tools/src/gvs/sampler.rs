@@ -28,6 +28,7 @@ use serde::Serialize;
 use sightline_runtime::bvh::Bvh;
 
 use super::SceneIndex;
+use super::components::Components;
 use super::neighbours::{Neighbours, touching_box};
 
 use super::geom::{Cell, Fan, Halton5, enlarge, halton};
@@ -220,6 +221,9 @@ const PROBED: u8 = 1;
 /// `probe_state` bit: the triangle's neighbours were probed.
 const EXPANDED: u8 = 2;
 
+/// Fraction of the way from a probed triangle's corner to its centre where the corner rays aim.
+const PROBE_INSET: f32 = 0.1;
+
 /// Largest group of target sampling (BVH subtrees of at most this many triangles).
 const TARGET_GROUP: usize = 64;
 
@@ -232,6 +236,7 @@ pub(super) struct Gvs<'a> {
     tris: &'a [[Vec3; 3]],
     bvh: &'a Bvh,
     neighbours: &'a Neighbours,
+    components: &'a Components,
     pub(super) cell: Cell,
     pub(super) p: Params,
     in_pvs: Vec<u64>,
@@ -256,6 +261,7 @@ impl<'a> Gvs<'a> {
             tris,
             bvh: &index.bvh,
             neighbours: &index.neighbours,
+            components: &index.components,
             cell,
             p,
             in_pvs: vec![0; tris.len().div_ceil(64)],
@@ -397,36 +403,63 @@ impl<'a> Gvs<'a> {
 
     /// Target sampling (this project's extension, "target"): random rays rarely hit small
     /// isolated objects far away (the thesis' Table 6 misses at the scene's periphery: neither
-    /// connected surfaces nor occluders, so ABS and reverse sampling never reach them). Once
-    /// random sampling has ended, every group of nearby triangles (a BVH subtree of at most
-    /// [`TARGET_GROUP`]) with no triangle in the PVS gets `targets` rays, each from a point of the
-    /// cell (Halton over the cell's volume) at the centre of one of its triangles (spread over
-    /// the group). What they hit joins the PVS and gets ABS as usual. The cost is bounded by the
-    /// number of groups, whatever their distance.
+    /// connected surfaces nor occluders, so ABS and reverse sampling never reach them), nor lone
+    /// triangles among found objects. Once random sampling has ended, every group of nearby
+    /// triangles (a BVH subtree of at most [`TARGET_GROUP`]) with triangles of unreached surface
+    /// components (no triangle of theirs in the PVS; see [`Components`]) has `targets` of those
+    /// triangles (spread over them) aimed at, each by up to `targets` rays until it is in the
+    /// PVS: from points of the cell (Halton over the cell's volume), at its centre and then at
+    /// points inside it (a lone triangle half hidden from one point of the cell). What they hit
+    /// joins the PVS and gets ABS as usual. The cost is bounded by the number of groups times
+    /// `targets²`, whatever their distance. Without a component table, a group is unreached
+    /// when none of its triangles is in the PVS.
     fn sample_targets(&mut self) {
-        let bvh = self.bvh;
+        let (bvh, comps) = (self.bvh, self.components);
+        let mut reached = vec![false; comps.count()];
+        for e in &self.entries {
+            if let Some(r) = reached.get_mut(comps.of(e.tri) as usize) {
+                *r = true;
+            }
+        }
+        let k = self.p.targets as usize;
         let mut todo: Vec<u32> = Vec::new();
+        let mut cand: Vec<u32> = Vec::new();
         bvh.groups(TARGET_GROUP, |g| {
-            if !g.iter().any(|&t| self.has(t)) {
-                let k = self.p.targets as usize;
-                todo.extend((0..k.min(g.len())).filter_map(|j| g.get(j * g.len() / k.min(g.len()))));
+            cand.clear();
+            if comps.is_empty() {
+                if !g.iter().any(|&t| self.has(t)) {
+                    cand.extend_from_slice(g);
+                }
+            } else {
+                cand.extend(g.iter().filter(|&&t| reached.get(comps.of(t) as usize) == Some(&false)));
             }
+            let k = k.min(cand.len());
+            todo.extend((0..k).filter_map(|j| cand.get(j * cand.len() / k)));
         });
-        for (i, &t) in todo.iter().enumerate() {
-            if self.out_of_rays() {
-                break;
-            }
+        let mut h = 0u64;
+        for &t in &todo {
             let Some(tri) = self.tris.get(t as usize) else {
                 continue;
             };
-            if self.has(t) {
-                continue;
+            for r in 0..k {
+                if self.out_of_rays() || self.has(t) {
+                    break;
+                }
+                h += 1;
+                let f = Vec3::new(halton(h, 2), halton(h, 3), halton(h, 5));
+                let o = self.cell.min + (self.cell.max - self.cell.min) * f;
+                // The centre first, then Halton points of the triangle (folded into it).
+                let aim = if r == 0 {
+                    (tri[0] + tri[1] + tri[2]) / 3.0
+                } else {
+                    let (mut u, mut v) = (halton(h, 7), halton(h, 11));
+                    if u + v > 1.0 {
+                        (u, v) = (1.0 - u, 1.0 - v);
+                    }
+                    tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v
+                };
+                self.handle(o, aim - o, Class::Target);
             }
-            let h = i as u64 + 1;
-            let f = Vec3::new(halton(h, 2), halton(h, 3), halton(h, 5));
-            let o = self.cell.min + (self.cell.max - self.cell.min) * f;
-            let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
-            self.handle(o, centre - o, Class::Target);
         }
     }
 
@@ -460,8 +493,10 @@ impl<'a> Gvs<'a> {
 
     /// Neighbour probing (this project's extension, "probe"): every triangle touching a PVS
     /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
-    /// probed once, by a ray from the cell corner furthest in front of its plane and one from the
-    /// corner furthest behind it, each aimed at its centre. This finds the slivers next to a
+    /// probed once: from points in front of its plane (the cell corner furthest in front, the
+    /// cell's centre, the three corners next to that corner), one after the other until it is
+    /// found, a ray at its centre and then rays near its three corners; from the corner furthest
+    /// behind its plane, one ray at its centre. This finds the slivers next to a
     /// surface's silhouette that only part of the cell sees (seen nearly edge-on, or from the
     /// back from the seed's origin), which ABS from one origin misses. A probed triangle that is
     /// hit joins the PVS and is queued from that corner, so ABS and probing continue from there.
@@ -531,6 +566,18 @@ impl<'a> Gvs<'a> {
                 continue;
             }
             self.handle(c, centre - c, Class::Probe);
+            if behind {
+                continue;
+            }
+            // A triangle partly hidden from `c` may show a corner: aim near each (a tenth of the
+            // way to the centre, inside the triangle).
+            for v in ut {
+                if self.has(u) || self.out_of_rays() {
+                    break;
+                }
+                let aim = v + (centre - v) * PROBE_INSET;
+                self.handle(c, aim - c, Class::Probe);
+            }
         }
     }
 

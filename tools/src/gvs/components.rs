@@ -1,0 +1,142 @@
+//! Connected surface components, for target sampling: two triangles are connected when they share
+//! a corner (bit-identical coordinates, as a mesh's shared vertices are), and a component is a
+//! maximal connected set. Built once per scene.
+//!
+//! Target sampling aims at the parts of the scene that nothing has reached: a component with a
+//! triangle in the PVS is reached (ABS and neighbour probing go on along its surface), one without
+//! is not, however close it lies to reached ones (a lone triangle beside a found sphere).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The component of every triangle.
+#[derive(Debug, Clone, Default)]
+pub struct Components {
+    /// Component index per triangle (components numbered in order of their first triangle);
+    /// non-finite triangles get [`Components::NONE`].
+    of: Vec<u32>,
+    count: usize,
+}
+
+impl Components {
+    /// The component of a non-finite triangle (never hit, never aimed at).
+    pub const NONE: u32 = u32::MAX;
+
+    /// The components of `tris`. Deterministic: corners are sorted (in parallel) by their bits and
+    /// triangle, and triangles sharing a corner are joined (union-find).
+    pub fn build(tris: &[[Vec3; 3]]) -> Components {
+        let finite = |t: &[Vec3; 3]| t.iter().all(|p| p.is_finite());
+        // Corners as (coordinate bits, triangle); -0.0 and 0.0 are the same point.
+        let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+        let mut corners: Vec<([u32; 3], u32)> = tris
+            .par_iter()
+            .enumerate()
+            .filter(|(_, t)| finite(t))
+            .flat_map_iter(|(i, t)| t.iter().map(move |&p| (key(p), i as u32)))
+            .collect();
+        corners.par_sort_unstable();
+        let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
+        for w in corners.windows(2) {
+            if w[0].0 == w[1].0 {
+                union(&mut parent, w[0].1, w[1].1);
+            }
+        }
+        let mut of = vec![Self::NONE; tris.len()];
+        let mut count = 0usize;
+        for i in 0..tris.len() {
+            if !finite(&tris[i]) {
+                continue;
+            }
+            let r = find(&mut parent, i as u32) as usize;
+            if of[r] == Self::NONE {
+                of[r] = count as u32;
+                count += 1;
+            }
+            of[i] = of[r];
+        }
+        Components { of, count }
+    }
+
+    /// Component of triangle `t` ([`Components::NONE`] for a non-finite or unknown triangle).
+    pub fn of(&self, t: u32) -> u32 {
+        self.of.get(t as usize).copied().unwrap_or(Self::NONE)
+    }
+
+    /// Number of components.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// True when the table was built (an empty table knows no component).
+    pub fn is_empty(&self) -> bool {
+        self.of.is_empty()
+    }
+
+    /// Heap bytes of the table.
+    pub fn bytes(&self) -> usize {
+        self.of.len() * 4
+    }
+}
+
+/// Root of `x`, halving the path on the way.
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let p = parent[x as usize];
+        parent[x as usize] = parent[p as usize];
+        x = parent[x as usize];
+    }
+    x
+}
+
+/// Join the sets of `a` and `b` (the smaller root becomes the root: deterministic).
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        let (lo, hi) = (ra.min(rb), ra.max(rb));
+        parent[hi as usize] = lo;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_corners_connect_and_lone_triangles_stay_apart() {
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0));
+        let far = Vec3::splat(10.0);
+        let nan = Vec3::NAN;
+        let tris = [
+            [a, b, c],
+            [far, far + Vec3::X, far + Vec3::Y],
+            [b, d, c],
+            [nan, a, b],
+            // Touches the first only at a point that is not a corner of both: not connected.
+            [Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.5, -1.0, 0.0), Vec3::new(0.6, -1.0, 0.0)],
+            // -0.0 is the same corner as 0.0.
+            [Vec3::new(-0.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.0, -1.0, -1.0)],
+        ];
+        let comp = Components::build(&tris);
+        assert_eq!(comp.count(), 3);
+        assert_eq!(comp.of(0), 0);
+        assert_eq!(comp.of(1), 1);
+        assert_eq!(comp.of(2), 0);
+        assert_eq!(comp.of(3), Components::NONE);
+        assert_eq!(comp.of(4), 2);
+        assert_eq!(comp.of(5), 0);
+        assert_eq!(comp.of(99), Components::NONE);
+    }
+
+    #[test]
+    fn the_same_for_any_thread_count() {
+        let sc = crate::scenegen::spheres(60, true, 5);
+        let build = |n| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("pool");
+            pool.install(|| Components::build(&sc.triangles))
+        };
+        let (one, two) = (build(1), build(2));
+        assert_eq!(one.of, two.of);
+        // 30 spheres of 80 triangles and 30 lone triangles.
+        assert_eq!(one.count(), 60);
+    }
+}
