@@ -138,6 +138,10 @@ struct Row {
     pvs: usize,
     error_mean: Option<f64>,
     error_max: Option<u64>,
+    /// The error counted per object (surface component) as the thesis counts it: a pixel is
+    /// wrong only when no triangle of its object is in the PVS (absent without a component table).
+    error_objects_mean: Option<f64>,
+    error_objects_max: Option<u64>,
     /// All the variant's rays over the process CPU seconds of its run (GVS bookkeeping
     /// included, so a lower bound of the ray-casting rate).
     gvs_rays_per_cpu_second: Option<f64>,
@@ -215,9 +219,11 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         Neighbours::default()
     };
     let neighbours_seconds = t0.elapsed().as_secs_f64();
-    // Only target sampling reads the components (without them it falls back to whole groups).
+    // Target sampling reads the components (without them it falls back to whole groups), and
+    // the error per object counts with them.
     let t0 = Instant::now();
-    let components = if variants.iter().any(|v| v.params(params).targets > 0) {
+    let measure_errors = args.views > 0 && args.res > 0;
+    let components = if measure_errors || variants.iter().any(|v| v.params(params).targets > 0) {
         Components::build(&scene.triangles)
     } else {
         Components::default()
@@ -267,7 +273,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             })
             .collect()
     };
-    let measure_on = args.views > 0 && args.res > 0;
+    let measure_on = measure_errors;
     let bar = progress::bar("error", measured.len() as u64, args.json || !measure_on);
     let cell_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
         measured
@@ -291,7 +297,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         print_missed(args, v.name(), &scene.triangles, &cells, pvs, &measured, &cell_buffers);
     }
     for (v, pvs, cpu) in &results {
-        let mut r = row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len());
+        let mut r = row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len(), &index.components);
         r.gvs_rays_per_cpu_second = rate(pvs, *cpu);
         rows.push(r);
     }
@@ -333,10 +339,18 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
                 &measured,
                 &moved_buffers,
                 scene.triangles.len(),
+                &index.components,
             );
             r.gvs_rays_per_cpu_second = rate(&fresh, cpu_fresh);
             rows.push(r);
-            let mut r = row("incremental@moved", &updated, &measured, &moved_buffers, scene.triangles.len());
+            let mut r = row(
+                "incremental@moved",
+                &updated,
+                &measured,
+                &moved_buffers,
+                scene.triangles.len(),
+                &index.components,
+            );
             r.gvs_rays_per_cpu_second = rate(&updated, cpu_update);
             rows.push(r);
         }
@@ -417,7 +431,15 @@ fn parse_variant(s: &str) -> anyhow::Result<Variant> {
     )
 }
 
-fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n: usize) -> Row {
+/// The table row of one variant; `comps` (possibly empty) gives the per-object error.
+fn row(
+    name: &str,
+    pvs: &[Pvs],
+    measured: &[usize],
+    buffers: &[Vec<Vec<u32>>],
+    n: usize,
+    comps: &Components,
+) -> Row {
     let mut s = Stats::default();
     for p in pvs {
         s.rays += p.stats.rays;
@@ -433,16 +455,24 @@ fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n
         s.seconds += p.stats.seconds;
     }
     let pvs_total: usize = pvs.iter().map(|p| p.entries.len()).sum();
-    let (mut sum, mut count, mut max) = (0.0, 0usize, 0u64);
-    for (k, &i) in measured.iter().enumerate() {
-        let (Some(b), Some(p)) = (buffers.get(k), pvs.get(i)) else {
-            continue;
-        };
-        let (mean, m) = error::measure(b, &p.bitset(n));
-        sum += mean * b.len() as f64;
-        count += b.len();
-        max = max.max(m);
-    }
+    // (mean, max) wrong pixels per view over the measured cells, the PVS of a cell as a bitset
+    // from `bits`; `None` without views.
+    let errors = |bits: &dyn Fn(&Pvs) -> Vec<u64>| {
+        let (mut sum, mut count, mut max) = (0.0, 0usize, 0u64);
+        for (k, &i) in measured.iter().enumerate() {
+            let (Some(b), Some(p)) = (buffers.get(k), pvs.get(i)) else {
+                continue;
+            };
+            let (mean, m) = error::measure(b, &bits(p));
+            sum += mean * b.len() as f64;
+            count += b.len();
+            max = max.max(m);
+        }
+        (count > 0).then(|| (sum / count as f64, max))
+    };
+    let tri_err = errors(&|p| p.bitset(n));
+    let obj_err =
+        if comps.is_empty() { None } else { errors(&|p| comps.covered(n, p.entries.iter().map(|e| e.tri))) };
     let cells = pvs.len().max(1);
     Row {
         variant: name.to_string(),
@@ -459,8 +489,10 @@ fn row(name: &str, pvs: &[Pvs], measured: &[usize], buffers: &[Vec<Vec<u32>>], n
         discontinuities: s.discontinuities / cells as u64,
         seconds: s.seconds / cells as f64,
         pvs: pvs_total / cells,
-        error_mean: (count > 0).then(|| sum / count as f64),
-        error_max: (count > 0).then_some(max),
+        error_mean: tri_err.map(|e| e.0),
+        error_max: tri_err.map(|e| e.1),
+        error_objects_mean: obj_err.map(|e| e.0),
+        error_objects_max: obj_err.map(|e| e.1),
         gvs_rays_per_cpu_second: None,
     }
 }
@@ -517,7 +549,7 @@ fn print_table(r: &Report) {
         r.error_fov
     );
     println!(
-        "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8}",
+        "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>11} {:>8}",
         "variant",
         "rays",
         "random",
@@ -532,14 +564,19 @@ fn print_table(r: &Report) {
         "pvs",
         "err mean",
         "err max",
+        "obj err",
         "Mray/cpu"
     );
     for row in &r.rows {
         let mean = row.error_mean.map_or("-".to_string(), |m| format!("{m:.1}"));
         let max = row.error_max.map_or("-".to_string(), |m| m.to_string());
+        let obj = row
+            .error_objects_mean
+            .zip(row.error_objects_max)
+            .map_or("-".to_string(), |(m, x)| format!("{m:.1}/{x}"));
         let rate = row.gvs_rays_per_cpu_second.map_or("-".to_string(), |r| format!("{:.2}", r / 1e6));
         println!(
-            "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.3} {:>8} {:>9} {:>8} {:>8}",
+            "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.3} {:>8} {:>9} {:>8} {:>11} {:>8}",
             row.variant,
             row.rays,
             row.random,
@@ -554,6 +591,7 @@ fn print_table(r: &Report) {
             row.pvs,
             mean,
             max,
+            obj,
             rate
         );
     }

@@ -72,6 +72,32 @@ impl Components {
         self.of.is_empty()
     }
 
+    /// Bitset over `n` triangles (bit `t % 64` of word `t / 64`) of every triangle whose component
+    /// holds one of `found`: the PVS at the level of objects, as the thesis counts its error
+    /// (a pixel of a sphere is wrong only when no part of that sphere was found). Triangles of
+    /// no component are covered when they are in `found` themselves.
+    pub fn covered(&self, n: usize, found: impl IntoIterator<Item = u32>) -> Vec<u64> {
+        let mut reached = vec![false; self.count];
+        let mut bits = vec![0u64; n.div_ceil(64)];
+        let mut set = |t: u32| {
+            if let Some(w) = bits.get_mut(t as usize / 64) {
+                *w |= 1 << (t % 64);
+            }
+        };
+        for t in found {
+            match reached.get_mut(self.of(t) as usize) {
+                Some(r) => *r = true,
+                None => set(t),
+            }
+        }
+        for t in 0..n.min(self.of.len()) as u32 {
+            if reached.get(self.of(t) as usize) == Some(&true) {
+                set(t);
+            }
+        }
+        bits
+    }
+
     /// Heap bytes of the table.
     pub fn bytes(&self) -> usize {
         self.of.len() * 4
@@ -125,6 +151,19 @@ mod tests {
         assert_eq!(comp.of(4), 2);
         assert_eq!(comp.of(5), 0);
         assert_eq!(comp.of(99), Components::NONE);
+    }
+
+    #[test]
+    fn covered_spreads_a_found_triangle_over_its_component() {
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0));
+        let far = Vec3::splat(10.0);
+        let tris = [[a, b, c], [far, far + Vec3::X, far + Vec3::Y], [b, d, c], [Vec3::NAN, a, b]];
+        let comp = Components::build(&tris);
+        assert_eq!(comp.covered(4, [2]), vec![0b0101]);
+        assert_eq!(comp.covered(4, [1, 3]), vec![0b1010]);
+        assert_eq!(comp.covered(4, []), vec![0]);
+        // Without a table only the found triangles themselves are covered.
+        assert_eq!(Components::default().covered(4, [2]), vec![0b0100]);
     }
 
     #[test]
