@@ -222,8 +222,8 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     // Target sampling reads the components (without them it falls back to whole groups), and
     // the error per object counts with them.
     let t0 = Instant::now();
-    let measure_errors = args.views > 0 && args.res > 0;
-    let components = if measure_errors || variants.iter().any(|v| v.params(params).targets > 0) {
+    let measure_on = args.views > 0 && args.res > 0;
+    let components = if measure_on || variants.iter().any(|v| v.params(params).targets > 0) {
         Components::build(&scene.triangles)
     } else {
         Components::default()
@@ -273,7 +273,6 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             })
             .collect()
     };
-    let measure_on = measure_errors;
     let bar = progress::bar("error", measured.len() as u64, args.json || !measure_on);
     let cell_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
         measured
