@@ -20,7 +20,7 @@ use sightline_runtime::bvh::Bvh;
 use crate::cli::Outcome;
 use crate::gvs::scene::{self, TriScene};
 use crate::gvs::{
-    self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, Variant, error, update,
+    self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, TargetGroups, Variant, error, update,
 };
 use crate::progress;
 use crate::scenegen;
@@ -163,8 +163,10 @@ struct Report {
     bvh_nodes: usize,
     neighbours_build_seconds: f64,
     neighbours_bytes: usize,
+    /// Seconds building the surface components and the target groups.
     components_build_seconds: f64,
     components: usize,
+    target_groups: usize,
     params: Params,
     rows: Vec<Row>,
     error_views: usize,
@@ -219,19 +221,18 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         Neighbours::default()
     };
     let neighbours_seconds = t0.elapsed().as_secs_f64();
-    // Target sampling reads the components (without them it falls back to whole groups), and
-    // the error per object counts with them.
+    // Target sampling reads the components and the target groups (without components it falls
+    // back to whole groups), and the error per object counts with the components.
     let t0 = Instant::now();
     let measure_on = args.views > 0 && args.res > 0;
-    let components = if measure_on || variants.iter().any(|v| v.params(params).targets > 0) {
-        Components::build(&scene.triangles)
-    } else {
-        Components::default()
-    };
+    let targets_on = variants.iter().any(|v| v.params(params).targets > 0);
+    let components =
+        if measure_on || targets_on { Components::build(&scene.triangles) } else { Components::default() };
+    let targets = if targets_on { TargetGroups::build(&bvh, &components) } else { TargetGroups::default() };
     let components_seconds = t0.elapsed().as_secs_f64();
     if !args.json {
         eprintln!(
-            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s, neighbour table {:.1} MB in {:.2} s, {} surface components in {:.2} s",
+            "{}: {} triangles, {} cells, BVH {} nodes in {:.2} s, neighbour table {:.1} MB in {:.2} s, {} surface components and {} target groups in {:.2} s",
             args.input,
             scene.triangles.len(),
             cells.len(),
@@ -240,10 +241,11 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             neighbours.bytes() as f64 / 1e6,
             neighbours_seconds,
             components.count(),
+            targets.len(),
             components_seconds
         );
     }
-    let index = SceneIndex { tris: &scene.triangles, bvh, neighbours, components };
+    let index = SceneIndex { tris: &scene.triangles, bvh, neighbours, components, targets };
 
     let mut rows = Vec::new();
     // Per variant: the cells' results and the process CPU seconds their run took.
@@ -368,6 +370,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         neighbours_bytes: index.neighbours.bytes(),
         components_build_seconds: components_seconds,
         components: index.components.count(),
+        target_groups: index.targets.len(),
         params,
         rows,
         error_views: if measure_on { args.views * measured.len() } else { 0 },
@@ -535,7 +538,7 @@ fn print_missed(
 
 fn print_table(r: &Report) {
     println!(
-        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
+        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components and target groups {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
         r.scene,
         r.triangles,
         r.cells,

@@ -18,6 +18,7 @@ pub mod geom;
 pub mod neighbours;
 pub mod sampler;
 pub mod scene;
+pub mod targets;
 pub mod update;
 
 use glam::Vec3;
@@ -30,9 +31,10 @@ pub use components::Components;
 pub use geom::Cell;
 pub use neighbours::Neighbours;
 pub use sampler::{EdgeMode, Params, Pvs, Stats};
+pub use targets::TargetGroups;
 
 /// A triangle soup prepared for sampling, once per scene (like the BVH, outside the cells'
-/// timing): its BVH, its neighbour table and its surface components.
+/// timing): its BVH, its neighbour table, its surface components and its target groups.
 #[derive(Debug, Clone)]
 pub struct SceneIndex<'a> {
     /// The triangles.
@@ -43,15 +45,19 @@ pub struct SceneIndex<'a> {
     pub neighbours: Neighbours,
     /// Their connected surface components (for target sampling).
     pub components: Components,
+    /// Its groups of nearby triangles with their components (for target sampling; without them
+    /// target sampling casts nothing).
+    pub targets: TargetGroups,
 }
 
 impl<'a> SceneIndex<'a> {
-    /// Build the BVH, the neighbour table and the components of `tris`.
+    /// Build the BVH, the neighbour table, the components and the target groups of `tris`.
     pub fn build(tris: &'a [[Vec3; 3]]) -> SceneIndex<'a> {
         let bvh = Bvh::build(tris);
         let neighbours = Neighbours::build(tris, &bvh);
         let components = Components::build(tris);
-        SceneIndex { tris, bvh, neighbours, components }
+        let targets = TargetGroups::build(&bvh, &components);
+        SceneIndex { tris, bvh, neighbours, components, targets }
     }
 }
 

@@ -30,6 +30,7 @@ use sightline_runtime::bvh::Bvh;
 use super::SceneIndex;
 use super::components::Components;
 use super::neighbours::{Neighbours, touching_box};
+use super::targets::TargetGroups;
 
 use super::geom::{Cell, Fan, Halton5, enlarge, halton};
 
@@ -224,9 +225,6 @@ const EXPANDED: u8 = 2;
 /// Fraction of the way from a probed triangle's corner to its centre where the corner rays aim.
 const PROBE_INSET: f32 = 0.1;
 
-/// Largest group of target sampling (BVH subtrees of at most this many triangles).
-const TARGET_GROUP: usize = 64;
-
 /// Most steps of one edge-point walk before it gives up.
 const WALK_STEPS: u32 = 64;
 
@@ -237,10 +235,12 @@ pub(super) struct Gvs<'a> {
     bvh: &'a Bvh,
     neighbours: &'a Neighbours,
     components: &'a Components,
+    targets: &'a TargetGroups,
     pub(super) cell: Cell,
     pub(super) p: Params,
     in_pvs: Vec<u64>,
-    /// Per triangle, the cell corners silhouette re-seeding has tried (bit k = corner k).
+    /// Per triangle, the cell corners silhouette re-seeding has tried (bit k = corner k); empty
+    /// without silhouette re-seeding.
     tried: Vec<u8>,
     /// Per triangle, neighbour probing state: [`PROBED`], [`EXPANDED`].
     probe_state: Vec<u8>,
@@ -262,10 +262,11 @@ impl<'a> Gvs<'a> {
             bvh: &index.bvh,
             neighbours: &index.neighbours,
             components: &index.components,
+            targets: &index.targets,
             cell,
             p,
             in_pvs: vec![0; tris.len().div_ceil(64)],
-            tried: vec![0; tris.len()],
+            tried: vec![0; if p.silhouette { tris.len() } else { 0 }],
             probe_state: vec![0; if p.probe { tris.len() } else { 0 }],
             candidates: Vec::new(),
             entries: Vec::new(),
@@ -405,37 +406,39 @@ impl<'a> Gvs<'a> {
     /// isolated objects far away (the thesis' Table 6 misses at the scene's periphery: neither
     /// connected surfaces nor occluders, so ABS and reverse sampling never reach them), nor lone
     /// triangles among found objects. Once random sampling has ended, every group of nearby
-    /// triangles (a BVH subtree of at most [`TARGET_GROUP`]) with triangles of unreached surface
+    /// triangles ([`TargetGroups`], built once per scene) with triangles of unreached surface
     /// components (no triangle of theirs in the PVS; see [`Components`]) has `targets` of those
     /// triangles (spread over them) aimed at, each by up to `targets` rays until it is in the
     /// PVS: from points of the cell (Halton over the cell's volume), at its centre and then at
     /// points inside it (a lone triangle half hidden from one point of the cell). What they hit
     /// joins the PVS and gets ABS as usual. The cost is bounded by the number of groups times
-    /// `targets²`, whatever their distance. Without a component table, a group is unreached
-    /// when none of its triangles is in the PVS.
+    /// `targets²`, whatever their distance; a group whose components are all reached costs one
+    /// look per component. Without a component table, a group is unreached when none of its
+    /// triangles is in the PVS; without target groups, nothing is cast.
     fn sample_targets(&mut self) {
-        let (bvh, comps) = (self.bvh, self.components);
+        let comps = self.components;
         let mut reached = vec![false; comps.count()];
         for e in &self.entries {
             if let Some(r) = reached.get_mut(comps.of(e.tri) as usize) {
                 *r = true;
             }
         }
+        let unreached = |c: u32| reached.get(c as usize) == Some(&false);
         let k = self.p.targets as usize;
         let mut todo: Vec<u32> = Vec::new();
         let mut cand: Vec<u32> = Vec::new();
-        bvh.groups(TARGET_GROUP, |g| {
+        for (g, g_comps) in self.targets.iter() {
             cand.clear();
             if comps.is_empty() {
                 if !g.iter().any(|&t| self.has(t)) {
                     cand.extend_from_slice(g);
                 }
-            } else {
-                cand.extend(g.iter().filter(|&&t| reached.get(comps.of(t) as usize) == Some(&false)));
+            } else if g_comps.iter().any(|&c| unreached(c)) {
+                cand.extend(g.iter().filter(|&&t| unreached(comps.of(t))));
             }
             let k = k.min(cand.len());
             todo.extend((0..k).filter_map(|j| cand.get(j * cand.len() / k)));
-        });
+        }
         let mut h = 0u64;
         for &t in &todo {
             let Some(tri) = self.tris.get(t as usize) else {
