@@ -87,10 +87,12 @@ pub struct Args {
     /// Initial random rays of the "first" variants (default 100000).
     #[arg(long)]
     pub first: Option<u64>,
-    /// Triangles aimed at per unreached triangle group, and rays per such triangle, of the
-    /// "target" variant (default 4).
+    /// Triangles aimed at per unreached triangle group of the "target" variant (default 3).
     #[arg(long)]
     pub targets: Option<u32>,
+    /// Most rays aimed at one target triangle, from points spread over the cell (default 16).
+    #[arg(long)]
+    pub target_rays: Option<u32>,
     /// Edge-point walk without the forced midpoint ray.
     #[arg(long)]
     pub no_midpoint: bool,
@@ -417,6 +419,7 @@ fn params(args: &Args) -> Params {
         max_random: args.max_random.unwrap_or(d.max_random),
         first: args.first.unwrap_or(d.first),
         targets: args.targets.unwrap_or(d.targets),
+        target_rays: args.target_rays.unwrap_or(d.target_rays),
         midpoint: !args.no_midpoint,
         reverse: !args.no_reverse,
         seed: args.seed,

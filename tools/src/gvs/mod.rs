@@ -141,11 +141,15 @@ impl Variant {
     }
 }
 
-/// Triangles aimed at per unreached group, and rays per such triangle, of the "target" variant
-/// when [`Params::targets`] is 0. Measured on `gen:mixed:2000` (5 cells, 50 views; lone triangles
-/// among spheres): 2 leaves 13.6 wrong pixels per view for 160 target rays per cell, 4 leaves 6.9
-/// for 372, 8 leaves 6.6 for 1,059; the city and the spheres do not change.
-pub const TARGETS_DEFAULT: u32 = 4;
+/// Triangles aimed at per unreached group of the "target" variant when [`Params::targets`] is 0
+/// (each by up to [`sampler::TARGET_RAYS`] rays). Measured on `gen:mixed:2000` (lone triangles
+/// among spheres; 5 cells, 50 views) with 16 rays per target: 2 targets 3.2 wrong pixels per
+/// view for 766 target rays per cell, 3 targets 3.0 for 985, 4 targets 3.1 for 1,158 (with 4
+/// rays per target, the earlier rule: 7.1 for 354); the city and `spheres:1000` do not change.
+/// Every group the cell does not reach costs up to 3 × 16 rays: at the thesis' sphere density
+/// (`spheres:10116`, 2 cells) 338 k target rays per cell instead of 116 k (+2.8 % rays), and the
+/// error counted per object 3.4 → 1.9 pixels per view.
+pub const TARGETS_DEFAULT: u32 = 3;
 
 /// Run GVS on every cell, in parallel over cells; `progress` is called once per finished cell.
 pub fn run_cells(
