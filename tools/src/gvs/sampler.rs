@@ -225,8 +225,8 @@ const PROBED: u8 = 1;
 /// `probe_state` bit: the triangle's neighbours were probed.
 const EXPANDED: u8 = 2;
 
-/// Default of [`Params::target_rays`], the most rays target sampling aims at one triangle (from as many points of the cell: an object
-/// seen through a gap from part of the cell only). Measured on `gen:mixed:2000` (5 cells, 50
+/// Default of [`Params::target_rays`], the most rays target sampling aims at one triangle (from
+/// as many points of the cell: an object seen through a gap from part of the cell only). Measured on `gen:mixed:2000` (5 cells, 50
 /// views), targets × rays per target: 4 × 4 (the earlier rule) 7.1 wrong pixels per view, 4 × 8
 /// 5.2, 4 × 16 3.1, 4 × 32 3.7, 4 × 64 3.0: past 16 the differences are sampling noise; over 10
 /// cells of 8 units, 4 × 4 10.5 (5.3 counted per object), 3 × 12 5.2 (0.02), 2 × 16 5.3 (0.06).
