@@ -97,11 +97,6 @@ impl Components {
         }
         bits
     }
-
-    /// Heap bytes of the table.
-    pub fn bytes(&self) -> usize {
-        self.of.len() * 4
-    }
 }
 
 /// Root of `x`, halving the path on the way.

@@ -444,6 +444,10 @@ impl<'a> Gvs<'a> {
             }
         }
         let unreached = |reached: &[bool], c: u32| reached.get(c as usize) == Some(&false);
+        // A target is done when its component is reached (without components: when it is found).
+        let done = |g: &Gvs, reached: &[bool], t: u32| {
+            if comps.is_empty() { g.has(t) } else { !unreached(reached, comps.of(t)) }
+        };
         let k = self.p.targets as usize;
         let mut todo: Vec<u32> = Vec::new();
         let mut cand: Vec<u32> = Vec::new();
@@ -464,11 +468,8 @@ impl<'a> Gvs<'a> {
             let Some(tri) = self.tris.get(t as usize) else {
                 continue;
             };
-            let reached_now = |g: &Gvs, reached: &[bool]| {
-                if comps.is_empty() { g.has(t) } else { !unreached(reached, comps.of(t)) }
-            };
             for r in 0..self.p.target_rays {
-                if self.out_of_rays() || reached_now(self, &reached) {
+                if self.out_of_rays() || done(self, &reached, t) {
                     break;
                 }
                 h += 1;

@@ -17,13 +17,13 @@ pub const TARGET_GROUP: usize = 64;
 pub struct TargetGroups {
     /// Every group's triangles, group after group (each group in BVH build order).
     tris: Vec<u32>,
-    /// End of each group in `tris`.
-    ends: Vec<u32>,
-    /// Every group's distinct components, ascending, group after group (empty without a
+    /// Group `i`'s triangles are `tris[starts[i]..starts[i + 1]]` (empty when not built).
+    starts: Vec<u32>,
+    /// Every group's distinct components, ascending, group after group (none without a
     /// component table).
     comps: Vec<u32>,
-    /// End of each group in `comps`.
-    comp_ends: Vec<u32>,
+    /// Group `i`'s components are `comps[comp_starts[i]..comp_starts[i + 1]]`.
+    comp_starts: Vec<u32>,
 }
 
 impl TargetGroups {
@@ -31,11 +31,11 @@ impl TargetGroups {
     /// empty table: the groups then list no component). Triangles of no component
     /// ([`Components::NONE`]: non-finite, never in the BVH) are not listed.
     pub fn build(bvh: &Bvh, components: &Components) -> TargetGroups {
-        let mut g = TargetGroups::default();
+        let mut g = TargetGroups { starts: vec![0], comp_starts: vec![0], ..TargetGroups::default() };
         let mut distinct = Vec::new();
         bvh.groups(TARGET_GROUP, |tris| {
             g.tris.extend_from_slice(tris);
-            g.ends.push(g.tris.len() as u32);
+            g.starts.push(g.tris.len() as u32);
             if !components.is_empty() {
                 distinct.clear();
                 distinct.extend(tris.iter().map(|&t| components.of(t)).filter(|&c| c != Components::NONE));
@@ -43,37 +43,33 @@ impl TargetGroups {
                 distinct.dedup();
                 g.comps.extend_from_slice(&distinct);
             }
-            g.comp_ends.push(g.comps.len() as u32);
+            g.comp_starts.push(g.comps.len() as u32);
         });
         g
     }
 
     /// Every group as (its triangles, its distinct components), in order.
     pub fn iter(&self) -> impl Iterator<Item = (&[u32], &[u32])> + '_ {
-        let bounds = |ends: &[u32], i: usize| {
-            let start = if i == 0 { 0 } else { ends.get(i - 1).copied().unwrap_or(0) as usize };
-            start..ends.get(i).copied().unwrap_or(0) as usize
-        };
-        (0..self.ends.len()).map(move |i| {
-            let tris = self.tris.get(bounds(&self.ends, i)).unwrap_or_default();
-            let comps = self.comps.get(bounds(&self.comp_ends, i)).unwrap_or_default();
-            (tris, comps)
-        })
+        let (tris, comps) = (self.starts.windows(2), self.comp_starts.windows(2));
+        tris.zip(comps).map(|(t, c)| (run(&self.tris, t), run(&self.comps, c)))
     }
 
     /// Number of groups (0 when not built).
     pub fn len(&self) -> usize {
-        self.ends.len()
+        self.starts.len().saturating_sub(1)
     }
 
     /// True when not built (or the scene has no triangle).
     pub fn is_empty(&self) -> bool {
-        self.ends.is_empty()
+        self.len() == 0
     }
+}
 
-    /// Heap bytes.
-    pub fn bytes(&self) -> usize {
-        4 * (self.tris.len() + self.ends.len() + self.comps.len() + self.comp_ends.len())
+/// `v[w[0]..w[1]]` for a window `w` of two offsets (empty when out of range).
+fn run<'v>(v: &'v [u32], w: &[u32]) -> &'v [u32] {
+    match *w {
+        [a, b] => v.get(a as usize..b as usize).unwrap_or_default(),
+        _ => &[],
     }
 }
 
