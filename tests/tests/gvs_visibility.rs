@@ -309,3 +309,27 @@ fn target_sampling_finds_an_object_seen_through_a_gap_from_part_of_the_cell() {
     assert!(!run(Params { target_rays: 4, ..target }), "premise: four rays found it");
     assert!(run(target), "target sampling missed it");
 }
+
+#[test]
+fn recorded_rays_are_the_rays_cast_and_hit_every_pvs_triangle() {
+    let scene = scenegen::spheres(60, true, 3);
+    let index = SceneIndex::build(&scene.triangles);
+    let (lo, hi) = scene.cells[0];
+    let cell = Cell::new(lo, hi);
+    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
+    let plain = sampler::run(&index, cell, p);
+    let (recorded, rays) = sampler::run_recorded(&index, cell, p);
+    // Recording changes nothing, and records every ray once.
+    let tris = |pvs: &gvs::Pvs| pvs.entries.iter().map(|e| e.tri).collect::<Vec<_>>();
+    assert_eq!(tris(&plain), tris(&recorded));
+    assert_eq!(rays.len() as u64, recorded.stats.rays);
+    // Every PVS triangle was the first hit of one of them.
+    let mut hit = vec![false; scene.triangles.len()];
+    for &(o, d) in &rays {
+        if let Some(h) = index.bvh.intersect(o, d, f32::INFINITY) {
+            hit[h.triangle as usize] = true;
+        }
+    }
+    assert!(!recorded.entries.is_empty());
+    assert!(recorded.entries.iter().all(|e| hit[e.tri as usize]));
+}

@@ -102,6 +102,24 @@ fn bench(c: &mut Criterion) {
         }
     }
     g.finish();
+
+    // The default variant's rays of the same cells cast alone, in the order GVS cast them: the ray
+    // casting's share of the whole run above (the rest is the sampler's bookkeeping).
+    let mut g = c.benchmark_group("gvs rays alone");
+    g.sample_size(10);
+    for (name, index, cell) in scenes {
+        let (_, rays) =
+            sampler::run_recorded(index, cell, Variant::ProbeFirstTarget.params(Params::default()));
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        g.bench_function(format!("{} {name}", Variant::ProbeFirstTarget.name()), |b| {
+            b.iter(|| {
+                black_box(
+                    rays.iter().filter(|&&(o, d)| index.bvh.intersect(o, d, f32::INFINITY).is_some()).count(),
+                )
+            })
+        });
+    }
+    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -270,6 +270,8 @@ pub(super) struct Gvs<'a> {
     /// Rays cast when the current termination window began, and new triangles found since.
     window_start: u64,
     window_new: u32,
+    /// Every ray cast, as `(origin, direction)`, when recording ([`run_recorded`]).
+    record: Option<Vec<(Vec3, Vec3)>>,
 }
 
 impl<'a> Gvs<'a> {
@@ -292,6 +294,7 @@ impl<'a> Gvs<'a> {
             stats: Stats::default(),
             window_start: 0,
             window_new: 0,
+            record: None,
         }
     }
 
@@ -331,6 +334,9 @@ impl<'a> Gvs<'a> {
             Class::Silhouette => self.stats.silhouette += 1,
             Class::Probe => self.stats.probe += 1,
             Class::Target => self.stats.target += 1,
+        }
+        if let Some(r) = &mut self.record {
+            r.push((o, dir));
         }
         match self.bvh.intersect(o, dir, f32::INFINITY) {
             Some(h) => Sample { tri: h.triangle, pos: o + dir * h.t, t: h.t },
@@ -822,9 +828,26 @@ impl<'a> Gvs<'a> {
 
 /// Run GVS for `cell` over the triangles of `index`.
 pub fn run(index: &SceneIndex, cell: Cell, params: Params) -> Pvs {
+    run_with(index, cell, params, false).0
+}
+
+/// [`run`], also returning every ray it cast as `(origin, direction)` in casting order (for
+/// benchmarks that time the ray casting alone against the whole run). The PVS is the same.
+pub fn run_recorded(index: &SceneIndex, cell: Cell, params: Params) -> (Pvs, Vec<(Vec3, Vec3)>) {
+    let (pvs, rays) = run_with(index, cell, params, true);
+    (pvs, rays.unwrap_or_default())
+}
+
+fn run_with(
+    index: &SceneIndex,
+    cell: Cell,
+    params: Params,
+    record: bool,
+) -> (Pvs, Option<Vec<(Vec3, Vec3)>>) {
     let start = Instant::now();
     let mut g = Gvs::new(index, cell, params);
+    g.record = record.then(Vec::new);
     g.run();
     g.stats.seconds = start.elapsed().as_secs_f64();
-    Pvs { cell, entries: g.entries, stats: g.stats }
+    (Pvs { cell, entries: g.entries, stats: g.stats }, g.record)
 }
