@@ -333,3 +333,22 @@ fn recorded_rays_are_the_rays_cast_and_hit_every_pvs_triangle() {
     assert!(!recorded.entries.is_empty());
     assert!(recorded.entries.iter().all(|e| hit[e.tri as usize]));
 }
+
+#[test]
+fn a_run_stopped_by_the_ray_cap_says_so() {
+    let scene = scenegen::spheres(60, true, 3);
+    let index = SceneIndex::build(&scene.triangles);
+    let (lo, hi) = scene.cells[0];
+    let cell = Cell::new(lo, hi);
+    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
+    let full = sampler::run(&index, cell, p);
+    assert!(!full.stats.capped, "{:?}", full.stats);
+    assert!(full.stats.rays < p.max_rays);
+    // A cap below what the run needs: stopped there, and flagged.
+    let cap = full.stats.rays / 3;
+    let capped = sampler::run(&index, cell, Params { max_rays: cap, ..p });
+    assert!(capped.stats.capped, "{:?}", capped.stats);
+    // (A seed's nine outline rays go out together, so a run may pass the cap by a few.)
+    assert!((cap..cap + 16).contains(&capped.stats.rays), "{} rays for a cap of {cap}", capped.stats.rays);
+    assert!(capped.entries.len() < full.entries.len());
+}

@@ -147,6 +147,8 @@ struct Row {
     /// All the variant's rays over the process CPU seconds of its run (GVS bookkeeping
     /// included, so a lower bound of the ray-casting rate).
     gvs_rays_per_cpu_second: Option<f64>,
+    /// Cells whose run stopped at the ray cap (`--max-rays`): their PVS may be incomplete.
+    capped_cells: usize,
 }
 
 /// Rays of all cells over `cpu` seconds.
@@ -499,6 +501,7 @@ fn row(
         error_objects_mean: obj_err.map(|e| e.0),
         error_objects_max: obj_err.map(|e| e.1),
         gvs_rays_per_cpu_second: None,
+        capped_cells: pvs.iter().filter(|p| p.stats.capped).count(),
     }
 }
 
@@ -598,6 +601,12 @@ fn print_table(r: &Report) {
             max,
             obj,
             rate
+        );
+    }
+    for row in r.rows.iter().filter(|row| row.capped_cells > 0) {
+        println!(
+            "note: {}: {} of {} cells stopped at the ray cap ({} rays, --max-rays); their PVS may miss triangles",
+            row.variant, row.capped_cells, row.cells, r.params.max_rays
         );
     }
     if r.error_rays > 0 {

@@ -78,7 +78,9 @@ pub struct Params {
     /// new triangles queue up as seeds), then go on as usual. 0 is the stock "last" strategy
     /// (random rays only when the queue is empty). Default 0.
     pub first: u64,
-    /// Cap on all rays. Default 10 M (the thesis' cap).
+    /// Cap on all rays. Default 10 M (the thesis' cap). It is checked between steps, so a run
+    /// may pass it by the few rays of one step (a seed's nine outline rays); a run that reaches
+    /// it says so in [`Stats::capped`].
     pub max_rays: u64,
     /// Cap on random rays. Default 1 M.
     pub max_random: u64,
@@ -143,6 +145,9 @@ pub struct Stats {
     pub seeds: u64,
     /// Wall-clock seconds.
     pub seconds: f64,
+    /// The run stopped at [`Params::max_rays`]: seeds left unsampled or target sampling cut
+    /// short, so the PVS may miss triangles a longer run would find.
+    pub capped: bool,
 }
 
 /// One PVS entry: a triangle and the ray that found it.
@@ -424,6 +429,7 @@ impl<'a> Gvs<'a> {
                 self.abs(seed);
             }
         }
+        self.stats.capped = self.out_of_rays();
     }
 
     /// Target sampling (this project's extension, "target"): random rays rarely hit small
