@@ -310,13 +310,19 @@ fn target_sampling_finds_an_object_seen_through_a_gap_from_part_of_the_cell() {
     assert!(run(target), "target sampling missed it");
 }
 
+/// A small sphere-and-triangle scene, its first suggested cell, and default-variant parameters
+/// that keep a run short.
+fn small_sphere_cell() -> (scenegen::Scene, Cell, Params) {
+    let scene = scenegen::spheres(60, true, 3);
+    let (lo, hi) = scene.cells[0];
+    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
+    (scene, Cell::new(lo, hi), p)
+}
+
 #[test]
 fn recorded_rays_are_the_rays_cast_and_hit_every_pvs_triangle() {
-    let scene = scenegen::spheres(60, true, 3);
+    let (scene, cell, p) = small_sphere_cell();
     let index = SceneIndex::build(&scene.triangles);
-    let (lo, hi) = scene.cells[0];
-    let cell = Cell::new(lo, hi);
-    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
     let plain = sampler::run(&index, cell, p);
     let (recorded, rays) = sampler::run_recorded(&index, cell, p);
     // Recording changes nothing, and records every ray once.
@@ -336,11 +342,8 @@ fn recorded_rays_are_the_rays_cast_and_hit_every_pvs_triangle() {
 
 #[test]
 fn a_run_stopped_by_the_ray_cap_says_so() {
-    let scene = scenegen::spheres(60, true, 3);
+    let (scene, cell, p) = small_sphere_cell();
     let index = SceneIndex::build(&scene.triangles);
-    let (lo, hi) = scene.cells[0];
-    let cell = Cell::new(lo, hi);
-    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
     let full = sampler::run(&index, cell, p);
     assert!(!full.stats.capped, "{:?}", full.stats);
     assert!(full.stats.rays < p.max_rays);
