@@ -355,3 +355,32 @@ fn a_run_stopped_by_the_ray_cap_says_so() {
     assert!((cap..cap + 16).contains(&capped.stats.rays), "{} rays for a cap of {cap}", capped.stats.rays);
     assert!(capped.entries.len() < full.entries.len());
 }
+
+#[test]
+fn probing_a_hidden_neighbour_casts_no_corner_ray_its_hider_blocks() {
+    // A wall triangle `t` seen from the cell, its neighbour `u` (sharing a corner, facing the
+    // cell), and one big triangle halfway that hides all of `u` from the whole cell but not `t`.
+    let t = [Vec3::new(10.0, 2.0, -3.0), Vec3::new(10.0, 8.0, 0.0), Vec3::new(10.0, 2.0, 3.0)];
+    let u = [Vec3::new(10.0, 2.0, -3.0), Vec3::new(10.0, 0.5, -3.5), Vec3::new(10.0, 0.5, -2.5)];
+    let hider = [Vec3::new(5.0, -0.7, -2.8), Vec3::new(5.0, 5.0, -2.8), Vec3::new(5.0, -0.7, 2.9)];
+    let tris = vec![t, u, hider];
+    let index = SceneIndex::build(&tris);
+    let cell = cell();
+    let hidden =
+        |o: Vec3, p: Vec3| index.bvh.intersect(o, p - o, f32::INFINITY).map(|h| h.triangle) == Some(2);
+    let centre = (u[0] + u[1] + u[2]) / 3.0;
+    let points = cell.corners().into_iter().chain([cell.centre()]);
+    assert!(
+        points.clone().all(|c| u.iter().all(|&v| hidden(c, v + (centre - v) * 0.1)) && hidden(c, centre)),
+        "premise: the hider covers u from every probe point"
+    );
+    let n = (u[1] - u[0]).cross(u[2] - u[0]);
+    assert!(points.clone().all(|c| n.dot(c - u[0]) > 0.0), "premise: u faces the whole cell");
+    let pvs = sampler::run(&index, cell, Variant::ProbeFirstTarget.params(quick()));
+    let found = pvs.sorted();
+    assert!(found.contains(&0) && found.contains(&2) && !found.contains(&1), "{found:?}");
+    // `u` is the only triangle probed: one ray at its centre from each of the nine probe points
+    // (the eight corners and the centre), each stopped by the hider. The corner rays from the
+    // first five points (three each) cross the hider and are not cast.
+    assert_eq!(pvs.stats.probe, 9, "{:?}", pvs.stats);
+}

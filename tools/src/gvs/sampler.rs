@@ -25,7 +25,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use sightline_runtime::bvh::Bvh;
+use sightline_runtime::bvh::{Bvh, intersect_brute};
 
 use super::SceneIndex;
 use super::components::Components;
@@ -538,7 +538,8 @@ impl<'a> Gvs<'a> {
     /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
     /// probed once: from points in front of its plane (the cell corner furthest in front, the
     /// cell's centre, the three corners next to that corner), one after the other until it is
-    /// found, a ray at its centre and then rays near its three corners; then from the other four
+    /// found, a ray at its centre and then rays near its three corners (those that do not cross
+    /// the triangle which hid its centre from that point); then from the other four
     /// corners in front, a ray at its centre (what only one edge of the cell sees: a city facade
     /// tile 90 px large in a moved cell's view); from the corner furthest behind its plane, one
     /// ray at its centre. This finds the slivers next to a
@@ -609,18 +610,24 @@ impl<'a> Gvs<'a> {
             if n.dot(c - ut[0]) <= 0.0 || self.has(u) || self.out_of_rays() {
                 continue;
             }
-            self.handle(c, centre - c, Class::Probe);
+            let s = self.handle(c, centre - c, Class::Probe);
             if i >= PROBE_FULL {
                 continue;
             }
             // A triangle partly hidden from `c` may show a corner: aim near each (a tenth of the
-            // way to the centre, inside the triangle).
+            // way to the centre, inside the triangle). A corner ray that crosses the triangle which
+            // hid the centre from `c` would end on it or nearer, never on `u`, and is not cast (a
+            // new triangle nearer than it is left to the other rays).
+            let hider = if s.tri != u && s.t < 1.0 { self.tris.get(s.tri as usize) } else { None };
             for v in ut {
                 if self.has(u) || self.out_of_rays() {
                     break;
                 }
-                let aim = v + (centre - v) * PROBE_INSET;
-                self.handle(c, aim - c, Class::Probe);
+                let d = v + (centre - v) * PROBE_INSET - c;
+                if hider.is_some_and(|x| intersect_brute(std::slice::from_ref(x), c, d, 1.0).is_some()) {
+                    continue;
+                }
+                self.handle(c, d, Class::Probe);
             }
         }
         let c = corners[kmin];
