@@ -72,12 +72,24 @@ impl Components {
         self.of.is_empty()
     }
 
+    /// Per component, true when one of `found` belongs to it (triangles of no component are
+    /// skipped).
+    pub fn reached(&self, found: impl IntoIterator<Item = u32>) -> Vec<bool> {
+        let mut reached = vec![false; self.count];
+        for t in found {
+            if let Some(r) = reached.get_mut(self.of(t) as usize) {
+                *r = true;
+            }
+        }
+        reached
+    }
+
     /// Bitset over `n` triangles (bit `t % 64` of word `t / 64`) of every triangle whose component
     /// holds one of `found`: the PVS at the level of objects, as the thesis counts its error
     /// (a pixel of a sphere is wrong only when no part of that sphere was found). Triangles of
     /// no component are covered when they are in `found` themselves.
-    pub fn covered(&self, n: usize, found: impl IntoIterator<Item = u32>) -> Vec<u64> {
-        let mut reached = vec![false; self.count];
+    pub fn covered(&self, n: usize, found: impl IntoIterator<Item = u32> + Clone) -> Vec<u64> {
+        let reached = self.reached(found.clone());
         let mut bits = vec![0u64; n.div_ceil(64)];
         let mut set = |t: u32| {
             if let Some(w) = bits.get_mut(t as usize / 64) {
@@ -85,9 +97,8 @@ impl Components {
             }
         };
         for t in found {
-            match reached.get_mut(self.of(t) as usize) {
-                Some(r) => *r = true,
-                None => set(t),
+            if self.of(t) == Self::NONE {
+                set(t);
             }
         }
         for t in 0..n.min(self.of.len()) as u32 {
@@ -154,6 +165,8 @@ mod tests {
         let far = Vec3::splat(10.0);
         let tris = [[a, b, c], [far, far + Vec3::X, far + Vec3::Y], [b, d, c], [Vec3::NAN, a, b]];
         let comp = Components::build(&tris);
+        // Triangle 3 (non-finite) belongs to no component.
+        assert_eq!(comp.reached([2, 3]), vec![true, false]);
         assert_eq!(comp.covered(4, [2]), vec![0b0101]);
         assert_eq!(comp.covered(4, [1, 3]), vec![0b1010]);
         assert_eq!(comp.covered(4, []), vec![0]);

@@ -449,12 +449,7 @@ impl<'a> Gvs<'a> {
     /// groups, nothing is cast.
     fn sample_targets(&mut self) {
         let comps = self.components;
-        let mut reached = vec![false; comps.count()];
-        for e in &self.entries {
-            if let Some(r) = reached.get_mut(comps.of(e.tri) as usize) {
-                *r = true;
-            }
-        }
+        let mut reached = comps.reached(self.entries.iter().map(|e| e.tri));
         let unreached = |reached: &[bool], c: u32| reached.get(c as usize) == Some(&false);
         // A target is done when its component is reached (without components: when it is found).
         let done = |g: &Gvs, reached: &[bool], t: u32| {
