@@ -9,6 +9,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::geom::Cell;
+
 /// The component of every triangle.
 #[derive(Debug, Clone, Default)]
 pub struct Components {
@@ -16,6 +18,8 @@ pub struct Components {
     /// non-finite triangles get [`Components::NONE`].
     of: Vec<u32>,
     count: usize,
+    /// Per component, the bounding box of its triangles.
+    bounds: Vec<Cell>,
 }
 
 impl Components {
@@ -42,24 +46,35 @@ impl Components {
             }
         }
         let mut of = vec![Self::NONE; tris.len()];
-        let mut count = 0usize;
-        for i in 0..tris.len() {
-            if !finite(&tris[i]) {
+        let mut bounds: Vec<Cell> = Vec::new();
+        for (i, t) in tris.iter().enumerate() {
+            if !finite(t) {
                 continue;
             }
             let r = find(&mut parent, i as u32) as usize;
             if of[r] == Self::NONE {
-                of[r] = count as u32;
-                count += 1;
+                of[r] = bounds.len() as u32;
+                bounds.push(Cell { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY });
             }
             of[i] = of[r];
+            if let Some(b) = bounds.get_mut(of[i] as usize) {
+                for &p in t {
+                    b.min = b.min.min(p);
+                    b.max = b.max.max(p);
+                }
+            }
         }
-        Components { of, count }
+        Components { of, count: bounds.len(), bounds }
     }
 
     /// Component of triangle `t` ([`Components::NONE`] for a non-finite or unknown triangle).
     pub fn of(&self, t: u32) -> u32 {
         self.of.get(t as usize).copied().unwrap_or(Self::NONE)
+    }
+
+    /// Bounding box of component `c` (`None` for [`Components::NONE`] or an unknown component).
+    pub fn bounds(&self, c: u32) -> Option<&Cell> {
+        self.bounds.get(c as usize)
     }
 
     /// Number of components.
@@ -157,6 +172,11 @@ mod tests {
         assert_eq!(comp.of(4), 2);
         assert_eq!(comp.of(5), 0);
         assert_eq!(comp.of(99), Components::NONE);
+        let bounds = |c: u32| comp.bounds(c).map(|b| (b.min, b.max));
+        assert_eq!(bounds(0), Some((Vec3::new(0.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 0.0))));
+        assert_eq!(bounds(1), Some((far, far + Vec3::new(1.0, 1.0, 0.0))));
+        assert_eq!(bounds(2), Some((Vec3::new(0.5, -1.0, 0.0), Vec3::new(0.6, 0.0, 0.0))));
+        assert_eq!(bounds(Components::NONE), None);
     }
 
     #[test]
