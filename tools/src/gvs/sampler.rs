@@ -494,15 +494,14 @@ impl<'a> Gvs<'a> {
         }
         // One Halton sequence over (cell point, point in the target) for all candidates.
         let mut seq = Halton5::new(1);
-        let mut occluders: Vec<Cell> = Vec::new();
-        let mut seen: Vec<u32> = Vec::new();
+        // The components seen hiding the current target.
+        let mut occluders: Vec<u32> = Vec::new();
         for &t in &todo {
             let Some(tri) = self.tris.get(t as usize) else {
                 continue;
             };
             let own = comps.of(t);
             occluders.clear();
-            seen.clear();
             // Steering stops when no candidate of a ray missed the known occluders (they cover
             // the cell's view of the target; the rest of its rays are drawn in order).
             let mut steer = true;
@@ -525,9 +524,16 @@ impl<'a> Gvs<'a> {
                         }
                         tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v
                     };
-                    let d = aim - o;
-                    let inv = d.recip();
-                    let crossed = occluders.iter().filter(|b| crosses(b, o, inv)).count();
+                    let crossed = if occluders.is_empty() {
+                        0
+                    } else {
+                        let inv = (aim - o).recip();
+                        occluders
+                            .iter()
+                            .filter_map(|&c| comps.bounds(c))
+                            .filter(|b| crosses(b, o, inv))
+                            .count()
+                    };
                     if best.is_none_or(|(c, _, _)| crossed < c) {
                         best = Some((crossed, o, aim));
                     }
@@ -546,13 +552,8 @@ impl<'a> Gvs<'a> {
                     *r = true;
                 }
                 // Another component hit before the aimed point hides it from this origin.
-                if hit != own
-                    && s.t < 1.0
-                    && !seen.contains(&hit)
-                    && let Some(b) = comps.bounds(hit)
-                {
-                    seen.push(hit);
-                    occluders.push(*b);
+                if hit != own && hit != Components::NONE && s.t < 1.0 && !occluders.contains(&hit) {
+                    occluders.push(hit);
                 }
             }
         }
