@@ -589,7 +589,10 @@ impl<'a> Gvs<'a> {
 
     /// Neighbour probing (this project's extension, "probe"): every triangle touching a PVS
     /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
-    /// probed once: from points in front of its plane (the cell corner furthest in front, the
+    /// probed once. Its front is the side `(v1 - v0) × (v2 - v0)` points to (triangles run
+    /// counter-clockwise seen from the side they are meant to be seen from, as in `.obj` meshes and
+    /// in [`super::scene::from_level`]'s triangles). It is probed from points in front of its
+    /// plane (the cell corner furthest in front, the
     /// cell's centre, the three corners next to that corner), one after the other until it is
     /// found, a ray at its centre and then rays near its three corners (those that do not cross
     /// the triangle which hid its centre from that point); then from the other four
