@@ -428,3 +428,28 @@ fn target_sampling_steers_around_the_objects_that_hid_its_target() {
     let target = run(Variant::ProbeFirstTarget.params(Params { target_rays: 4, ..few }));
     assert!(target.sorted().contains(&lone), "target sampling missed it: {:?}", target.stats);
 }
+
+/// Neighbour probing takes the side a surface is seen from from its sheet, not from the winding
+/// convention: the same sphere cloud wound clockwise costs the same rays and gives the same PVS
+/// (wound the other way round, it probed every sphere from inside and cast several times the
+/// probe rays).
+#[test]
+fn probing_follows_the_winding_of_each_surface() {
+    let scene = scenegen::spheres(200, false, 3);
+    let (lo, hi) = scene.cells[0];
+    let cell = Cell::new(lo, hi);
+    let p = Variant::ProbeFirstTarget.params(Params { first: 2_000, window: 5_000, ..Params::default() });
+    let reversed: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
+    let run = |tris: &[[Vec3; 3]]| sampler::run(&SceneIndex::build(tris), cell, p);
+    let (a, b) = (run(&scene.triangles), run(&reversed));
+    assert!(a.stats.probe > 1_000, "premise: probing ran ({:?})", a.stats);
+    let ratio = b.stats.probe as f64 / a.stats.probe as f64;
+    assert!(
+        (0.95..1.05).contains(&ratio),
+        "probe rays {} wound one way, {} the other",
+        a.stats.probe,
+        b.stats.probe
+    );
+    let d = difference(&a.sorted(), &b.sorted());
+    assert!(d < 0.01, "PVS differ by {:.2} % of their union", 100.0 * d);
+}

@@ -18,6 +18,7 @@ pub mod geom;
 pub mod neighbours;
 pub mod sampler;
 pub mod scene;
+pub mod sheets;
 pub mod targets;
 pub mod update;
 

@@ -7,10 +7,15 @@
 //! thread count). Memory is bounded: a triangle with more than [`MAX_STORED`] neighbours (large
 //! triangles crossing many others) stores none and is marked crowded; probing queries the BVH for
 //! it instead, which gives the same list.
+//!
+//! The table also holds the scene's [`Sheets`]: from which side probing expects a neighbour to be
+//! seen depends on how its winding relates to the triangle seen.
 
 use glam::Vec3;
 use rayon::prelude::*;
 use sightline_runtime::bvh::Bvh;
+
+use super::sheets::Sheets;
 
 /// Most neighbours stored for one triangle (the table holds at most `4 × MAX_STORED + 9` bytes per
 /// triangle). Measured on the sphere scene: 15.4 on average.
@@ -36,10 +41,12 @@ pub struct Neighbours {
     list: Vec<u32>,
     /// Per triangle: true when it has more than [`MAX_STORED`] neighbours (none stored).
     crowded: Vec<bool>,
+    /// The triangles' sheets.
+    sheets: Sheets,
 }
 
 impl Neighbours {
-    /// The table of `tris` (indexed by `bvh`), built in parallel.
+    /// The table of `tris` (indexed by `bvh`) and their sheets, built in parallel.
     pub fn build(tris: &[[Vec3; 3]], bvh: &Bvh) -> Neighbours {
         let parts: Vec<(Vec<u32>, Vec<u32>, Vec<bool>)> = tris
             .par_chunks(CHUNK)
@@ -73,6 +80,7 @@ impl Neighbours {
             start: Vec::with_capacity(tris.len() + 1),
             list: Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum()),
             crowded: Vec::with_capacity(tris.len()),
+            sheets: Sheets::build(tris),
         };
         nb.start.push(0);
         for (counts, list, crowded) in parts {
@@ -95,9 +103,17 @@ impl Neighbours {
         self.list.get(*self.start.get(t)?..*self.start.get(t + 1)?)
     }
 
+    /// The scene's sheets (empty in an empty table).
+    pub fn sheets(&self) -> &Sheets {
+        &self.sheets
+    }
+
     /// Bytes the table holds.
     pub fn bytes(&self) -> usize {
-        self.start.len() * size_of::<usize>() + self.list.len() * size_of::<u32>() + self.crowded.len()
+        self.start.len() * size_of::<usize>()
+            + self.list.len() * size_of::<u32>()
+            + self.crowded.len()
+            + self.sheets.bytes()
     }
 }
 

@@ -229,6 +229,10 @@ struct Seed {
 const PROBED: u8 = 1;
 /// `probe_state` bit: the triangle's neighbours were probed.
 const EXPANDED: u8 = 2;
+/// [`Gvs::sheet_side`]: seen from the side its normal points to.
+const SEEN_FRONT: u8 = 1;
+/// [`Gvs::sheet_side`]: seen from behind.
+const SEEN_BACK: u8 = 2;
 
 /// Default of [`Params::target_rays`], the most rays target sampling aims at one triangle (from
 /// as many points of the cell: an object seen through a gap from part of the cell only). Measured on `gen:mixed:2000` (5 cells, 50
@@ -285,6 +289,9 @@ pub(super) struct Gvs<'a> {
     tried: Vec<u8>,
     /// Per triangle, neighbour probing state: [`PROBED`], [`EXPANDED`].
     probe_state: Vec<u8>,
+    /// Per sheet (indexed by the triangle naming it), the side its naming triangle was first seen
+    /// from: 0 not yet, [`SEEN_FRONT`] or [`SEEN_BACK`]; empty without probing.
+    sheet_side: Vec<u8>,
     /// Scratch list of probe candidates.
     candidates: Vec<u32>,
     pub(super) entries: Vec<Entry>,
@@ -311,6 +318,7 @@ impl<'a> Gvs<'a> {
             in_pvs: vec![0; tris.len().div_ceil(64)],
             tried: vec![0; if p.silhouette { tris.len() } else { 0 }],
             probe_state: vec![0; if p.probe { tris.len() } else { 0 }],
+            sheet_side: vec![0; if p.probe { tris.len() } else { 0 }],
             candidates: Vec::new(),
             entries: Vec::new(),
             queue: VecDeque::new(),
@@ -583,15 +591,18 @@ impl<'a> Gvs<'a> {
             }
         }
         if self.p.probe {
-            self.probe_neighbours(seed.tri, tri);
+            self.probe_neighbours(seed.tri, tri, o);
         }
     }
 
     /// Neighbour probing (this project's extension, "probe"): every triangle touching a PVS
     /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
-    /// probed once. Its front is the side `(v1 - v0) × (v2 - v0)` points to (triangles run
-    /// counter-clockwise seen from the side they are meant to be seen from, as in `.obj` meshes and
-    /// in [`super::scene::from_level`]'s triangles). It is probed from points in front of its
+    /// probed once. Its front is the side it is expected to be seen from: the side the expanded
+    /// triangle was seen from, carried over through the windings of their sheet
+    /// ([`super::sheets`]); for a triangle of another sheet, the side that sheet was first seen
+    /// from in this cell; failing both, the side `(v1 - v0) × (v2 - v0)` points to (triangles
+    /// counter-clockwise seen from the front, as in `.obj` meshes and in
+    /// [`super::scene::from_level`]'s triangles). It is probed from points in front of its
     /// plane (the cell corner furthest in front, the
     /// cell's centre, the three corners next to that corner), one after the other until it is
     /// found, a ray at its centre and then rays near its three corners (those that do not cross
@@ -602,7 +613,7 @@ impl<'a> Gvs<'a> {
     /// surface's silhouette that only part of the cell sees (seen nearly edge-on, or from the
     /// back from the seed's origin), which ABS from one origin misses. A probed triangle that is
     /// hit joins the PVS and is queued from that corner, so ABS and probing continue from there.
-    pub(super) fn probe_neighbours(&mut self, t: u32, tri: &[Vec3; 3]) {
+    pub(super) fn probe_neighbours(&mut self, t: u32, tri: &[Vec3; 3], seen_from: Vec3) {
         let Some(state) = self.probe_state.get_mut(t as usize) else {
             return;
         };
@@ -625,14 +636,22 @@ impl<'a> Gvs<'a> {
                 &cand[..]
             }
         };
+        let seen_back = (tri[1] - tri[0]).cross(tri[2] - tri[0]).dot(seen_from - tri[0]) < 0.0;
+        let sheet = self.neighbours.sheets().of(t);
+        if let Some((s, flipped)) = sheet
+            && let Some(side) = self.sheet_side.get_mut(s as usize)
+            && *side == 0
+        {
+            *side = if seen_back != flipped { SEEN_BACK } else { SEEN_FRONT };
+        }
         for &u in list {
-            self.probe(u);
+            self.probe(u, sheet, seen_back);
         }
         self.candidates = cand;
     }
 
     /// Probe the neighbour `u` once (see [`Gvs::probe_neighbours`]), unless it is in the PVS.
-    fn probe(&mut self, u: u32) {
+    fn probe(&mut self, u: u32, t_sheet: Option<(u32, bool)>, t_back: bool) {
         if self.has(u) || self.out_of_rays() {
             return;
         }
@@ -645,6 +664,18 @@ impl<'a> Gvs<'a> {
         }
         *state |= PROBED;
         let n = (ut[1] - ut[0]).cross(ut[2] - ut[0]);
+        // Seen from behind: in the expanded triangle's sheet, as that triangle was; in another
+        // sheet seen before, as that sheet was; otherwise by the winding convention.
+        let back = match (self.neighbours.sheets().of(u), t_sheet) {
+            (Some((s, f)), Some((ts, tf))) if s == ts => t_back != (f != tf),
+            (Some((s, f)), _) => match self.sheet_side.get(s as usize) {
+                Some(&SEEN_FRONT) => f,
+                Some(&SEEN_BACK) => !f,
+                _ => false,
+            },
+            (None, _) => false,
+        };
+        let n = if back { -n } else { n };
         let centre = (ut[0] + ut[1] + ut[2]) / 3.0;
         let corners = self.cell.corners();
         let side = corners.map(|c| n.dot(c - ut[0]));

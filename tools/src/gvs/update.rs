@@ -71,7 +71,7 @@ pub fn update(index: &SceneIndex, prev: &Pvs, v: Vec3, params: Params) -> Pvs {
         if let Some(t) = tris.get(tri as usize)
             && g.p.probe
         {
-            g.probe_neighbours(tri, t);
+            g.probe_neighbours(tri, t, o);
         }
     }
     g.run();
