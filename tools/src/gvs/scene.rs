@@ -52,7 +52,7 @@ pub fn generated(kind: scenegen::Kind, size: u32, seed: u64) -> TriScene {
 /// from the front, as in `.obj` meshes and the generated scenes, so that `(v1 - v0) × (v2 - v0)`
 /// points to the side the face is seen from: neighbour probing casts most of its rays from that
 /// side (with the faces' own order it probed every wall from behind, where no view cell of a
-/// sealed level is, and missed up to a thousand pixels of a wall per view).
+/// sealed level is, and missed walls of several hundred pixels in a view).
 pub fn from_level(level: &Level) -> TriScene {
     let mut triangles = Vec::new();
     let mut face_of = Vec::new();
