@@ -10,6 +10,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::geom::Cell;
+use super::union_find::ParityForest;
 
 /// The component of every triangle.
 #[derive(Debug, Clone, Default)]
@@ -29,20 +30,18 @@ impl Components {
     /// The components of `tris`. Deterministic: corners are sorted (in parallel) by their bits and
     /// triangle, and triangles sharing a corner are joined (union-find).
     pub fn build(tris: &[[Vec3; 3]]) -> Components {
-        let finite = |t: &[Vec3; 3]| t.iter().all(|p| p.is_finite());
-        // Corners as (coordinate bits, triangle); -0.0 and 0.0 are the same point.
-        let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+        // Corners as (coordinate bits, triangle).
         let mut corners: Vec<([u32; 3], u32)> = tris
             .par_iter()
             .enumerate()
             .filter(|(_, t)| finite(t))
-            .flat_map_iter(|(i, t)| t.iter().map(move |&p| (key(p), i as u32)))
+            .flat_map_iter(|(i, t)| t.iter().map(move |&p| (corner_key(p), i as u32)))
             .collect();
         corners.par_sort_unstable();
-        let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
+        let mut forest = ParityForest::new(tris.len());
         for w in corners.windows(2) {
             if w[0].0 == w[1].0 {
-                union(&mut parent, w[0].1, w[1].1);
+                forest.join(w[0].1, w[1].1, false);
             }
         }
         let mut of = vec![Self::NONE; tris.len()];
@@ -51,7 +50,7 @@ impl Components {
             if !finite(t) {
                 continue;
             }
-            let r = find(&mut parent, i as u32) as usize;
+            let r = forest.find(i as u32).0 as usize;
             if of[r] == Self::NONE {
                 of[r] = bounds.len() as u32;
                 bounds.push(Cell { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY });
@@ -125,23 +124,15 @@ impl Components {
     }
 }
 
-/// Root of `x`, halving the path on the way.
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = parent[x as usize];
-    }
-    x
+/// A corner as the bits of its coordinates, the identity of shared vertices (−0 and +0 are the
+/// same point).
+pub(super) fn corner_key(p: Vec3) -> [u32; 3] {
+    p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() })
 }
 
-/// Join the sets of `a` and `b` (the smaller root becomes the root: deterministic).
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        let (lo, hi) = (ra.min(rb), ra.max(rb));
-        parent[hi as usize] = lo;
-    }
+/// True when every corner of `t` is finite (others belong to no component and no sheet).
+pub(super) fn finite(t: &[Vec3; 3]) -> bool {
+    t.iter().all(|p| p.is_finite())
 }
 
 #[cfg(test)]

@@ -20,6 +20,7 @@ pub mod sampler;
 pub mod scene;
 pub mod sheets;
 pub mod targets;
+mod union_find;
 pub mod update;
 
 use glam::Vec3;

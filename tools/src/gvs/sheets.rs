@@ -14,6 +14,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::components::{corner_key, finite};
+use super::union_find::ParityForest;
+
 /// Per triangle, its sheet and whether it is wound against the sheet's first triangle.
 #[derive(Debug, Clone, Default)]
 pub struct Sheets {
@@ -32,9 +35,6 @@ impl Sheets {
     /// triangles sharing one are joined by a union-find that keeps the parity of each triangle's
     /// winding to its root.
     pub fn build(tris: &[[Vec3; 3]]) -> Sheets {
-        let finite = |t: &[Vec3; 3]| t.iter().all(|p| p.is_finite());
-        // -0.0 and 0.0 are the same point.
-        let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() });
         // (lower corner, higher corner, triangle, runs from the lower to the higher corner).
         let mut edges: Vec<([u32; 3], [u32; 3], u32, bool)> = tris
             .par_iter()
@@ -42,7 +42,7 @@ impl Sheets {
             .filter(|(_, t)| finite(t))
             .flat_map_iter(|(i, t)| {
                 (0..3).filter_map(move |k| {
-                    let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                    let (a, b) = (corner_key(t[k]), corner_key(t[(k + 1) % 3]));
                     match a.cmp(&b) {
                         std::cmp::Ordering::Less => Some((a, b, i as u32, true)),
                         std::cmp::Ordering::Greater => Some((b, a, i as u32, false)),
@@ -79,49 +79,6 @@ impl Sheets {
     /// Bytes the table holds.
     pub fn bytes(&self) -> usize {
         self.sheet.len() * size_of::<u32>() + self.flipped.len()
-    }
-}
-
-/// Union-find over triangles that keeps, per node, whether it is wound against its parent.
-struct ParityForest {
-    parent: Vec<u32>,
-    odd: Vec<bool>,
-}
-
-impl ParityForest {
-    fn new(n: usize) -> ParityForest {
-        ParityForest { parent: (0..n as u32).collect(), odd: vec![false; n] }
-    }
-
-    /// Root of `x` and the parity of `x` to it; points the path at the root.
-    fn find(&mut self, x: u32) -> (u32, bool) {
-        let (mut r, mut odd) = (x, false);
-        while self.parent[r as usize] != r {
-            odd ^= self.odd[r as usize];
-            r = self.parent[r as usize];
-        }
-        // Again from `x`: each node's parity to the root is its parity to its old parent and on.
-        let (mut v, mut to_root) = (x, odd);
-        while self.parent[v as usize] != v {
-            let next = self.parent[v as usize];
-            let next_to_root = to_root ^ self.odd[v as usize];
-            self.parent[v as usize] = r;
-            self.odd[v as usize] = to_root;
-            (v, to_root) = (next, next_to_root);
-        }
-        (r, odd)
-    }
-
-    /// Record that `a` and `b` are wound against each other (`against`) or alike, unless they are
-    /// joined already (then the relation found first stands). The smaller root becomes the root.
-    fn join(&mut self, a: u32, b: u32, against: bool) {
-        let ((ra, pa), (rb, pb)) = (self.find(a), self.find(b));
-        if ra == rb {
-            return;
-        }
-        let (lo, hi) = (ra.min(rb), ra.max(rb));
-        self.parent[hi as usize] = lo;
-        self.odd[hi as usize] = pa ^ pb ^ against;
     }
 }
 
