@@ -18,9 +18,11 @@ use serde::Serialize;
 use sightline_runtime::bvh::Bvh;
 
 use crate::cli::Outcome;
+use crate::gvs::error::IdBuffer;
 use crate::gvs::scene::{self, TriScene};
 use crate::gvs::{
-    self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, TargetGroups, Variant, error, update,
+    self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, TargetGroups, Twins, Variant, error,
+    update,
 };
 use crate::progress;
 use crate::scenegen;
@@ -171,6 +173,8 @@ struct Report {
     components_build_seconds: f64,
     components: usize,
     target_groups: usize,
+    /// Triangles with a coplanar twin (see `gvs::twins`; 0 without error measurement).
+    twins: usize,
     params: Params,
     rows: Vec<Row>,
     error_views: usize,
@@ -270,17 +274,19 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     let error_rays = AtomicU64::new(0);
     let t_err = Instant::now();
     let cpu_err = cpu_seconds();
-    let buffers = |cell: &Cell, seed: u64| -> Vec<Vec<u32>> {
+    // The error metric's ties (see `gvs::twins`), built with the ID buffers.
+    let twins = if measure_on { Twins::build(&scene.triangles, &index.bvh) } else { Twins::default() };
+    let buffers = |cell: &Cell, seed: u64| -> Vec<IdBuffer> {
         error::views(cell, args.views, seed)
             .iter()
             .map(|view| {
                 error_rays.fetch_add((args.res * args.res) as u64, Ordering::Relaxed);
-                error::id_buffer(&index.bvh, view, args.res, args.fov)
+                error::id_buffer(&index.bvh, &scene.triangles, &twins, view, args.res, args.fov)
             })
             .collect()
     };
     let bar = progress::bar("error", measured.len() as u64, args.json || !measure_on);
-    let cell_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
+    let cell_buffers: Vec<Vec<IdBuffer>> = if measure_on {
         measured
             .iter()
             .map(|&i| {
@@ -328,7 +334,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
                 (cpu1.zip(cpu0).map(|(b, a)| b - a), cpu_seconds().zip(cpu1).map(|(b, a)| b - a));
             let t_err2 = Instant::now();
             let cpu2 = cpu_seconds();
-            let moved_buffers: Vec<Vec<Vec<u32>>> = if measure_on {
+            let moved_buffers: Vec<Vec<IdBuffer>> = if measure_on {
                 measured
                     .iter()
                     .map(|&i| buffers(&moved[i], args.seed.wrapping_add(1000 + i as u64)))
@@ -375,6 +381,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         components_build_seconds: components_seconds,
         components: index.components.count(),
         target_groups: index.targets.len(),
+        twins: twins.count(),
         params,
         rows,
         error_views: if measure_on { args.views * measured.len() } else { 0 },
@@ -443,7 +450,7 @@ fn row(
     name: &str,
     pvs: &[Pvs],
     measured: &[usize],
-    buffers: &[Vec<Vec<u32>>],
+    buffers: &[Vec<IdBuffer>],
     n: usize,
     comps: &Components,
 ) -> Row {
@@ -513,7 +520,7 @@ fn print_missed(
     cells: &[Cell],
     pvs: &[Pvs],
     measured: &[usize],
-    buffers: &[Vec<Vec<u32>>],
+    buffers: &[Vec<IdBuffer>],
 ) {
     for (k, &i) in measured.iter().enumerate() {
         let (Some(cell), Some(p), Some(bufs)) = (cells.get(i), pvs.get(i), buffers.get(k)) else {
@@ -544,7 +551,7 @@ fn print_missed(
 
 fn print_table(r: &Report) {
     println!(
-        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components and target groups {:.2} s; per cell averages; error over {} views of {}x{} at {}°",
+        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components and target groups {:.2} s; per cell averages; error over {} views of {}x{} at {}° ({} triangles with a coplanar twin: a pixel either shows is right when one is in the PVS)",
         r.scene,
         r.triangles,
         r.cells,
@@ -554,7 +561,8 @@ fn print_table(r: &Report) {
         r.error_views,
         r.error_res,
         r.error_res,
-        r.error_fov
+        r.error_fov,
+        r.twins
     );
     println!(
         "{:<34} {:>10} {:>9} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>11} {:>8}",

@@ -20,6 +20,7 @@ pub mod sampler;
 pub mod scene;
 pub mod sheets;
 pub mod targets;
+pub mod twins;
 mod union_find;
 pub mod update;
 
@@ -34,6 +35,7 @@ pub use geom::Cell;
 pub use neighbours::Neighbours;
 pub use sampler::{EdgeMode, Params, Pvs, Stats};
 pub use targets::TargetGroups;
+pub use twins::Twins;
 
 /// A triangle soup prepared for sampling, once per scene (like the BVH, outside the cells'
 /// timing): its BVH, its neighbour table, its surface components and its target groups.
