@@ -376,13 +376,56 @@ fn probing_a_hidden_neighbour_casts_no_corner_ray_its_hider_blocks() {
     );
     let n = (u[1] - u[0]).cross(u[2] - u[0]);
     assert!(points.clone().all(|c| n.dot(c - u[0]) > 0.0), "premise: u faces the whole cell");
-    let pvs = sampler::run(&index, cell, Variant::ProbeFirstTarget.params(quick()));
+    let p = Variant::ProbeFirstTarget.params(quick());
+    let pvs = sampler::run(&index, cell, p);
     let found = pvs.sorted();
     assert!(found.contains(&0) && found.contains(&2) && !found.contains(&1), "{found:?}");
     // `u` is the only triangle probed: one ray at its centre from each of the nine probe points
-    // (the eight corners and the centre), each stopped by the hider. The corner rays from the
-    // first five points (three each) cross the hider and are not cast.
-    assert_eq!(pvs.stats.probe, 9, "{:?}", pvs.stats);
+    // (the eight corners and the centre), each stopped by the hider, then the random probe rays
+    // (from points of the cell, all in front of `u`). The corner rays from the first five points
+    // (three each) cross the hider and are not cast.
+    assert!(p.probe_rays > 0);
+    assert_eq!(pvs.stats.probe, 9 + u64::from(p.probe_rays), "{:?}", pvs.stats);
+}
+
+#[test]
+fn random_probe_rays_find_a_neighbour_seen_through_a_window_from_inside_the_cell() {
+    // A far triangle `u` (x = 100) behind a wall (x = 50) with a small window: it shows through
+    // the window only from cell points near y = z = 0.5, not from the cell's corners or centre
+    // (the fixed probe points). Its neighbour `t` (sharing an edge, a long sliver reaching down
+    // past the wall) is seen from the whole cell.
+    let u = [Vec3::new(100.0, 5.3, 0.3), Vec3::new(100.0, 5.3, 0.7), Vec3::new(100.0, 5.7, 0.5)];
+    let t = [u[1], u[0], Vec3::new(100.0, -50.0, 0.5)];
+    let mut tris = vec![t, u];
+    for (ys, zs) in [
+        ((1.5, 2.9), (-1.5, 2.0)),
+        ((3.1, 4.5), (-1.5, 2.0)),
+        ((2.9, 3.1), (-1.5, 0.4)),
+        ((2.9, 3.1), (0.6, 2.0)),
+    ] {
+        wall_x(&mut tris, 50.0, ys, zs);
+    }
+    let index = SceneIndex::build(&tris);
+    let cell = cell();
+    let shows_u =
+        |o: Vec3, p: Vec3| index.bvh.intersect(o, p - o, f32::INFINITY).map(|h| h.triangle) == Some(1);
+    let inside_u = |a: f32, b: f32| u[0] + (u[1] - u[0]) * a + (u[2] - u[0]) * b;
+    let points_of_u: Vec<Vec3> = (0..8)
+        .flat_map(|i| (0..8 - i).map(move |j| (i, j)))
+        .map(|(i, j)| inside_u(i as f32 / 8.0 + 0.02, j as f32 / 8.0 + 0.02))
+        .collect();
+    for c in cell.corners().into_iter().chain([cell.centre()]) {
+        assert!(points_of_u.iter().all(|&p| !shows_u(c, p)), "premise: {c} does not see u");
+    }
+    assert!(shows_u(Vec3::new(0.0, 0.5, 0.5), inside_u(0.3, 0.3)), "premise: u shows from inside the cell");
+    // No target sampling: `u` is found by probing or not at all.
+    let p = Variant::Probe.params(quick());
+    let without = sampler::run(&index, cell, Params { probe_rays: 0, ..p });
+    assert!(without.sorted().contains(&0), "{:?}", without.sorted());
+    assert!(!without.sorted().contains(&1), "premise: the fixed probe rays miss u: {:?}", without.stats);
+    // (64 rays: `u` shows from a small part of the cell only, which the default 8 reach by chance.)
+    let with = sampler::run(&index, cell, Params { probe_rays: 64, ..p });
+    assert!(with.sorted().contains(&1), "{:?} {:?}", with.sorted(), with.stats);
 }
 
 /// The closed surface of the box `lo..hi` (12 triangles sharing corners: one component).

@@ -95,6 +95,10 @@ pub struct Args {
     /// Most rays aimed at one target triangle, from points spread over the cell (default 16).
     #[arg(long)]
     pub target_rays: Option<u32>,
+    /// Rays neighbour probing casts, from random points of the cell, at a probed triangle its
+    /// fixed rays missed (default 8).
+    #[arg(long)]
+    pub probe_rays: Option<u32>,
     /// Edge-point walk without the forced midpoint ray.
     #[arg(long)]
     pub no_midpoint: bool,
@@ -429,6 +433,7 @@ fn params(args: &Args) -> Params {
         first: args.first.unwrap_or(d.first),
         targets: args.targets.unwrap_or(d.targets),
         target_rays: args.target_rays.unwrap_or(d.target_rays),
+        probe_rays: args.probe_rays.unwrap_or(d.probe_rays),
         midpoint: !args.no_midpoint,
         reverse: !args.no_reverse,
         seed: args.seed,
