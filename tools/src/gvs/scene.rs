@@ -71,8 +71,12 @@ pub fn from_level(level: &Level) -> TriScene {
 }
 
 /// The open leaves of `level` as view cells, each shrunk by `margin` on every side (so the cell
-/// does not touch the walls it is bounded by); leaves thinner than twice the margin keep their
-/// middle plane.
+/// does not touch the walls it is bounded by), but on an axis where the leaf is thinner than four
+/// margins by a quarter of its width only, so that a thin leaf keeps half its thickness. (Shrunk
+/// to its middle plane or line, as before, a leaf thinner than two margins gave a cell whose
+/// random rays left from a few faces of zero area: one `e1m3` leaf missed a far wall it sees over a
+/// third of its length, 1 083 wrong pixels in a 500 × 500 view; twelve levels' mean 0.190 → 0.098
+/// wrong pixels per view, the largest 1 083 → 193.)
 pub fn leaf_cells(level: &Level, margin: f32) -> Vec<Cell> {
     level
         .leaves
@@ -80,7 +84,7 @@ pub fn leaf_cells(level: &Level, margin: f32) -> Vec<Cell> {
         .filter(|l| l.contents.is_open() && l.cluster >= 0)
         .map(|l| {
             let (a, b) = (Vec3::from_array(l.mins), Vec3::from_array(l.maxs));
-            let m = ((b - a) * 0.5).min(Vec3::splat(margin)).max(Vec3::ZERO);
+            let m = ((b - a) * 0.25).min(Vec3::splat(margin)).max(Vec3::ZERO);
             Cell::new(a + m, b - m)
         })
         .collect()
@@ -104,6 +108,29 @@ mod tests {
         let s = from_level(&level);
         assert_eq!(s.triangles.len(), 2);
         assert_eq!(s.face_of, Some(vec![0, 0]));
+    }
+
+    #[test]
+    fn leaf_cells_keep_half_of_a_thin_leaf() {
+        let leaf = |mins: [f32; 3], maxs: [f32; 3], contents| sightline_formats::Leaf {
+            contents,
+            cluster: 0,
+            mins,
+            maxs,
+            first_face: 0,
+            num_faces: 0,
+        };
+        let level = Level {
+            leaves: vec![
+                leaf([0.0, 0.0, 0.0], [1.0, 10.0, 3.0], sightline_formats::Contents::Empty),
+                leaf([0.0, 0.0, 0.0], [9.0, 9.0, 9.0], sightline_formats::Contents::Solid),
+            ],
+            ..Level::default()
+        };
+        let cells = leaf_cells(&level, 1.0);
+        assert_eq!(cells.len(), 1);
+        assert_eq!(cells[0].min, Vec3::new(0.25, 1.0, 0.75));
+        assert_eq!(cells[0].max, Vec3::new(0.75, 9.0, 2.25));
     }
 
     #[test]
