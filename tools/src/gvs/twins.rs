@@ -8,7 +8,7 @@
 //! the two) of the other's plane (computed in `f64`, so only the corners' own rounding to `f32`
 //! counts). Overlap is tested in the plane's projection onto its two non-dominant axes, by
 //! separating edges: touching along an edge or at a corner (within the same tolerance) is not
-//! overlap. The relation is symmetric.
+//! overlap. The relation is symmetric (but for the caps on crowded triangles, below).
 
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -21,8 +21,15 @@ use super::neighbours::touching_box;
 const FLAT: f64 = 1e-6;
 /// Triangles per parallel work item of the build.
 const CHUNK: usize = 4096;
+/// Most triangles whose boxes touch a triangle's box that the build examines for it (the first in
+/// BVH order), and most twins it keeps: the build stays linear in the scene on any input (a
+/// soup of many copies of one triangle, or long slivers all crossing one box). A crowded
+/// triangle's pixels may then miss a twin, which only counts them wrong.
+const MAX_CANDIDATES: usize = 256;
+const MAX_TWINS: usize = 16;
 
-/// Per triangle, its twins (compressed rows, ascending; most triangles have none).
+/// Per triangle, its twins (compressed rows, ascending, at most [`MAX_TWINS`]; most triangles
+/// have none).
 #[derive(Debug, Clone, Default)]
 pub struct Twins {
     /// Triangle `t`'s twins are `list[start[t]..start[t + 1]]`.
@@ -44,11 +51,13 @@ impl Twins {
                     found.clear();
                     let tri = &tris[t];
                     let (lo, hi) = touching_box(tri);
+                    let mut seen = 0;
                     bvh.overlapping(lo, hi, |u| {
                         if u as usize != t && tris.get(u as usize).is_some_and(|o| twins(tri, o)) {
                             found.push(u);
                         }
-                        true
+                        seen += 1;
+                        seen < MAX_CANDIDATES && found.len() < MAX_TWINS
                     });
                     if !found.is_empty() {
                         found.sort_unstable();
@@ -165,6 +174,15 @@ mod tests {
         }
         assert_eq!(t.count(), 4);
         assert!(t.of(99).is_empty());
+    }
+
+    #[test]
+    fn a_soup_of_copies_keeps_bounded_rows() {
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let tris = vec![tri; 5000];
+        let t = Twins::build(&tris, &Bvh::build(&tris));
+        assert_eq!(t.count(), 5000);
+        assert!((0..5000).all(|i| (1..=MAX_TWINS).contains(&t.of(i).len())));
     }
 
     #[test]
