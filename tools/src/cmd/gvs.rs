@@ -556,7 +556,7 @@ fn print_missed(
 
 fn print_table(r: &Report) {
     println!(
-        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components and target groups {:.2} s; per cell averages; error over {} views of {}x{} at {}° ({} triangles with a coplanar twin: a pixel either shows is right when one is in the PVS)",
+        "{}: {} triangles, {} cells, BVH {:.2} s, neighbour table {:.2} s, components and target groups {:.2} s; per cell averages; error over {} views of {}x{} at {}° ({} triangles have a coplanar twin; a pixel showing either is right when one of them is in the PVS)",
         r.scene,
         r.triangles,
         r.cells,
