@@ -45,6 +45,10 @@ const TILE: usize = 4;
 /// depth: the rounding of two triangles in one plane.
 const TIE: f32 = 1e-5;
 
+/// Most ties kept per pixel (the first twins in index order): a two-sided surface gives one, and
+/// a buffer stays within `8 × MAX_TIES` bytes per pixel on a soup of many coplanar copies.
+const MAX_TIES: usize = 2;
+
 /// One view's ID buffer.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct IdBuffer {
@@ -99,7 +103,11 @@ pub fn id_buffer(
                         continue;
                     };
                     *px = h.triangle;
+                    let first = ties.len();
                     for &u in twins.of(h.triangle) {
+                        if ties.len() - first == MAX_TIES {
+                            break;
+                        }
                         let Some(tri) = tris.get(u as usize) else {
                             continue;
                         };
