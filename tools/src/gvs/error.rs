@@ -29,7 +29,7 @@ pub fn views(cell: &Cell, n: usize, seed: u64) -> Vec<View> {
     (0..n)
         .map(|_| {
             let f = Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
-            let eye = cell.min + (cell.max - cell.min) * f;
+            let eye = cell.at(f);
             let yaw = rng.range(0.0, std::f32::consts::TAU);
             let pitch = rng.range(-45f32.to_radians(), 45f32.to_radians());
             let forward = Vec3::new(pitch.cos() * yaw.cos(), pitch.cos() * yaw.sin(), pitch.sin());

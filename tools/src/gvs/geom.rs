@@ -187,6 +187,21 @@ impl Cell {
         })
     }
 
+    /// The point at fractions `f` (each in `0..=1`) of the way from `min` to `max`.
+    pub fn at(&self, f: Vec3) -> Vec3 {
+        self.min + (self.max - self.min) * f
+    }
+
+    /// A Halton point `x` as a segment's two ends: a point of the cell volume (`x[0..3]`) and a
+    /// point of `tri` (`x[3..5]`, the unit square folded onto the triangle).
+    pub fn segment_to(&self, tri: &[Vec3; 3], x: [f32; 5]) -> (Vec3, Vec3) {
+        let [a, b, c, mut u, mut v] = x;
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        (self.at(Vec3::new(a, b, c)), tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v)
+    }
+
     /// The cell moved by `v`.
     pub fn translated(&self, v: Vec3) -> Cell {
         Cell { min: self.min + v, max: self.max + v }

@@ -548,16 +548,8 @@ impl<'a> Gvs<'a> {
                 // the cell, at the target's centre first and then at points inside it.
                 let mut best: Option<(usize, Vec3, Vec3)> = None;
                 for _ in 0..if occluders.is_empty() || !steer { 1 } else { TARGET_TRIES } {
-                    let [x, y, z, mut u, mut v] = seq.next_point();
-                    let o = self.cell.min + (self.cell.max - self.cell.min) * Vec3::new(x, y, z);
-                    let aim = if r == 0 {
-                        (tri[0] + tri[1] + tri[2]) / 3.0
-                    } else {
-                        if u + v > 1.0 {
-                            (u, v) = (1.0 - u, 1.0 - v);
-                        }
-                        tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v
-                    };
+                    let (o, inside) = self.cell.segment_to(tri, seq.next_point());
+                    let aim = if r == 0 { (tri[0] + tri[1] + tri[2]) / 3.0 } else { inside };
                     let crossed = if occluders.is_empty() {
                         0
                     } else {
@@ -758,15 +750,10 @@ impl<'a> Gvs<'a> {
                 break;
             }
             drawn += 1;
-            let [x, y, z, mut a, mut b] = self.probe_seq.next_point();
-            let o = self.cell.min + (self.cell.max - self.cell.min) * Vec3::new(x, y, z);
+            let (o, aim) = self.cell.segment_to(ut, self.probe_seq.next_point());
             if n.dot(o - ut[0]) <= 0.0 {
                 continue;
             }
-            if a + b > 1.0 {
-                (a, b) = (1.0 - a, 1.0 - b);
-            }
-            let aim = ut[0] + (ut[1] - ut[0]) * a + (ut[2] - ut[0]) * b;
             self.handle(o, aim - o, Class::Probe);
             cast += 1;
         }
