@@ -243,13 +243,19 @@ pub fn city(n: usize, seed: u64) -> Scene {
     Scene { triangles: tris, cells }
 }
 
-/// Push a UV sphere: `stacks × slices` quads (triangles at the poles), 80 triangles.
+/// Push a UV sphere: `stacks × slices` quads (triangles at the poles), 80 triangles, wound
+/// counter-clockwise seen from outside. Closed: the seam's and the poles' vertices are computed
+/// once, so every edge is shared, bit for bit, by exactly two triangles (in `f32`, `sin(π)` and
+/// `sin(2π)` are not 0, and computing them per slice left cracks a ray could slip through).
 fn sphere(out: &mut Vec<[Vec3; 3]>, c: Vec3, r: f32) {
     const STACKS: usize = 6;
     const SLICES: usize = 8;
     let p = |st: usize, sl: usize| {
+        if st == 0 || st == STACKS {
+            return c + Vec3::new(0.0, 0.0, if st == 0 { r } else { -r });
+        }
         let theta = std::f32::consts::PI * st as f32 / STACKS as f32;
-        let phi = std::f32::consts::TAU * sl as f32 / SLICES as f32;
+        let phi = std::f32::consts::TAU * (sl % SLICES) as f32 / SLICES as f32;
         c + r * Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
     };
     for st in 0..STACKS {
@@ -334,6 +340,31 @@ mod tests {
         let m = spheres(50, true, 1);
         assert_eq!(m.triangles.len(), 25 * 80 + 25);
         assert!(mesh(20_000).triangles.len() >= 20_000);
+    }
+
+    #[test]
+    fn spheres_are_closed_and_wound_outwards() {
+        let s = spheres(20, false, 4);
+        for (k, ball) in s.triangles.chunks(80).enumerate() {
+            // Every directed edge once, and its reverse once: closed, consistently wound.
+            let key = |p: Vec3| p.to_array().map(f32::to_bits);
+            let mut edges: Vec<_> =
+                ball.iter().flat_map(|t| (0..3).map(move |i| (key(t[i]), key(t[(i + 1) % 3])))).collect();
+            edges.sort_unstable();
+            assert!(edges.windows(2).all(|w| w[0] != w[1]), "sphere {k}: an edge twice");
+            for &(a, b) in &edges {
+                assert!(edges.binary_search(&(b, a)).is_ok(), "sphere {k}: an open edge");
+            }
+            // Outwards: positive signed volume.
+            let vol: f64 = ball
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|p| p.as_dvec3());
+                    a.dot(b.cross(c))
+                })
+                .sum();
+            assert!(vol > 0.0, "sphere {k} wound inwards");
+        }
     }
 
     #[test]
