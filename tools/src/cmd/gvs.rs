@@ -9,7 +9,6 @@
 //! the cell moved by `--move`.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -18,7 +17,7 @@ use serde::Serialize;
 use sightline_runtime::bvh::Bvh;
 
 use crate::cli::Outcome;
-use crate::gvs::error::IdBuffer;
+use crate::gvs::error::{ErrorStats, IdBuffer};
 use crate::gvs::scene::{self, TriScene};
 use crate::gvs::{
     self, Cell, Components, Neighbours, Params, Pvs, SceneIndex, Stats, TargetGroups, Twins, Variant, error,
@@ -48,7 +47,7 @@ pub struct Args {
     pub compare: bool,
     /// Cell translation for the incremental-update comparison, `dx,dy,dz` (default: a quarter of
     /// the first cell's width along x).
-    #[arg(long = "move")]
+    #[arg(long = "move", requires = "compare")]
     pub move_by: Option<String>,
     /// Views per measured cell for the error metric (0 disables it).
     #[arg(long, default_value_t = 10)]
@@ -196,12 +195,46 @@ const BEST: Variant = Variant::ProbeFirstTarget;
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let checked = check(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;
-    pool.install(|| run_in_pool(args, threads.max(1)))
+    pool.install(|| run_in_pool(args, checked, threads.max(1)))
 }
 
-fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
+/// Widest ID buffer (`--res`): one buffer of 8192² pixels takes 256 MiB of triangle ids (and at
+/// most twice as many tie entries, see `gvs::twins`).
+const MAX_RES: usize = 8192;
+
+/// ID-buffer pixels cast before they are compared with the PVSs and dropped: the error metric
+/// holds at most this many (64 MiB of ids; or one buffer, if larger), whatever `--views` and
+/// `--error-cells`. A batch is timed as a whole, so it is 16 views of the default 1000².
+const PIXEL_BUDGET: usize = 16 << 20;
+
+/// What `run` takes from the arguments besides the scene and the cells, checked before any work.
+#[derive(Debug)]
+struct Checked {
+    params: Params,
+    variants: Vec<Variant>,
+    /// `--move`, parsed.
+    shift: Option<Vec3>,
+}
+
+fn check(args: &Args) -> anyhow::Result<Checked> {
+    let params = params(args);
+    params.check()?;
+    if !(args.fov > 0.0 && args.fov < 180.0) {
+        bail!("--fov {}: the ID buffers' field of view must be between 0 and 180 degrees", args.fov);
+    }
+    if args.res > MAX_RES {
+        bail!("--res {}: ID buffers are at most {MAX_RES} pixels wide", args.res);
+    }
+    let variants = if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
+    let shift = args.move_by.as_deref().map(parse_vec).transpose()?;
+    Ok(Checked { params, variants, shift })
+}
+
+fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<Outcome> {
+    let Checked { params, variants, shift } = checked;
     let (scene, level) = load(&args.input, args.scene_seed)?;
     if scene.triangles.is_empty() {
         bail!("{}: no triangles", args.input);
@@ -218,12 +251,9 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     if cells.is_empty() {
         bail!("no view cells");
     }
-    let params = params(args);
     let t0 = Instant::now();
     let bvh = Bvh::build(&scene.triangles);
     let bvh_seconds = t0.elapsed().as_secs_f64();
-    let variants: Vec<Variant> =
-        if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
     let t0 = Instant::now();
     // Only probing reads the table (without it, `Neighbours::of` answers `None` and probing
     // would query the BVH).
@@ -272,47 +302,18 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
         results.push((v, pvs, cpu));
     }
 
-    // Error measurement: the same ID buffers for every variant.
+    // Error measurement: the same ID buffers for every variant, cast in batches and dropped once
+    // compared (see `Metric::measure`).
     let measured: Vec<usize> =
         evenly(&(0..cells.len()).collect::<Vec<_>>(), args.error_cells.min(cells.len()));
-    let error_rays = AtomicU64::new(0);
-    let t_err = Instant::now();
-    let cpu_err = cpu_seconds();
     // The error metric's ties (see `gvs::twins`), built with the ID buffers.
     let twins = if measure_on { Twins::build(&scene.triangles, &index.bvh) } else { Twins::default() };
-    let buffers = |cell: &Cell, seed: u64| -> Vec<IdBuffer> {
-        error::views(cell, args.views, seed)
-            .iter()
-            .map(|view| {
-                error_rays.fetch_add((args.res * args.res) as u64, Ordering::Relaxed);
-                error::id_buffer(&index.bvh, &scene.triangles, &twins, view, args.res, args.fov)
-            })
-            .collect()
-    };
-    let bar = progress::bar("error", measured.len() as u64, args.json || !measure_on);
-    let cell_buffers: Vec<Vec<IdBuffer>> = if measure_on {
-        measured
-            .iter()
-            .map(|&i| {
-                let b = buffers(&cells[i], args.seed.wrapping_add(i as u64));
-                bar.inc(1);
-                b
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    bar.finish_and_clear();
-    let mut error_seconds = t_err.elapsed().as_secs_f64();
-    let mut error_cpu = cpu_seconds().zip(cpu_err).map(|(b, a)| b - a);
-    if args.missed > 0
-        && !args.json
-        && let Some((v, pvs, _)) = results.first()
-    {
-        print_missed(args, v.name(), &scene.triangles, &cells, pvs, &measured, &cell_buffers);
-    }
-    for (v, pvs, cpu) in &results {
-        let mut r = row(v.name(), pvs, &measured, &cell_buffers, scene.triangles.len(), &index.components);
+    let mut metric = Metric::new(&index, &twins, args, &measured, PIXEL_BUDGET);
+    let pvs_of: Vec<&[Pvs]> = results.iter().map(|(_, p, _)| p.as_slice()).collect();
+    let missed = (args.missed > 0 && !args.json).then(|| results.first().map(|(v, _, _)| v.name())).flatten();
+    let errors = metric.measure(&cells, args.seed, &pvs_of, missed);
+    for ((v, pvs, cpu), e) in results.iter().zip(errors) {
+        let mut r = row(v.name(), pvs, e);
         r.gvs_rays_per_cpu_second = rate(pvs, *cpu);
         rows.push(r);
     }
@@ -320,10 +321,7 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
     if args.compare {
         // Incremental update against a fresh run on the moved cell, best variant's parameters.
         let base = BEST.params(params);
-        let shift = match &args.move_by {
-            Some(s) => parse_vec(s)?,
-            None => Vec3::X * ((cells[0].max.x - cells[0].min.x) * 0.25),
-        };
+        let shift = shift.unwrap_or(Vec3::X * ((cells[0].max.x - cells[0].min.x) * 0.25));
         let prev = results.iter().find(|(v, _, _)| *v == BEST).map(|(_, p, _)| p);
         if let Some(prev) = prev {
             let moved: Vec<Cell> = cells.iter().map(|c| c.translated(shift)).collect();
@@ -336,44 +334,24 @@ fn run_in_pool(args: &Args, threads: usize) -> anyhow::Result<Outcome> {
             };
             let (cpu_fresh, cpu_update) =
                 (cpu1.zip(cpu0).map(|(b, a)| b - a), cpu_seconds().zip(cpu1).map(|(b, a)| b - a));
-            let t_err2 = Instant::now();
-            let cpu2 = cpu_seconds();
-            let moved_buffers: Vec<Vec<IdBuffer>> = if measure_on {
-                measured
-                    .iter()
-                    .map(|&i| buffers(&moved[i], args.seed.wrapping_add(1000 + i as u64)))
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            error_seconds += t_err2.elapsed().as_secs_f64();
-            error_cpu = error_cpu.zip(cpu_seconds().zip(cpu2)).map(|(e, (b, a))| e + b - a);
-            let mut r = row(
-                &format!("{}@moved", BEST.name()),
-                &fresh,
-                &measured,
-                &moved_buffers,
-                scene.triangles.len(),
-                &index.components,
-            );
-            r.gvs_rays_per_cpu_second = rate(&fresh, cpu_fresh);
-            rows.push(r);
-            let mut r = row(
-                "incremental@moved",
-                &updated,
-                &measured,
-                &moved_buffers,
-                scene.triangles.len(),
-                &index.components,
-            );
-            r.gvs_rays_per_cpu_second = rate(&updated, cpu_update);
-            rows.push(r);
+            let errors = metric.measure(&moved, args.seed.wrapping_add(1000), &[&fresh, &updated], None);
+            for ((name, pvs, cpu), e) in [
+                (format!("{}@moved", BEST.name()), &fresh, cpu_fresh),
+                ("incremental@moved".into(), &updated, cpu_update),
+            ]
+            .into_iter()
+            .zip(errors)
+            {
+                let mut r = row(&name, pvs, e);
+                r.gvs_rays_per_cpu_second = rate(pvs, cpu);
+                rows.push(r);
+            }
         }
     }
 
-    let error_rays = error_rays.into_inner();
+    let (error_rays, error_seconds) = (metric.rays, metric.seconds);
     let per_core = if error_seconds > 0.0 { error_rays as f64 / error_seconds / threads as f64 } else { 0.0 };
-    let per_cpu = error_cpu.filter(|&c| c > 0.0).map(|c| error_rays as f64 / c);
+    let per_cpu = metric.cpu.filter(|&c| c > 0.0).map(|c| error_rays as f64 / c);
     let report = Report {
         scene: args.input.clone(),
         triangles: scene.triangles.len(),
@@ -450,15 +428,9 @@ fn parse_variant(s: &str) -> anyhow::Result<Variant> {
     )
 }
 
-/// The table row of one variant; `comps` (possibly empty) gives the per-object error.
-fn row(
-    name: &str,
-    pvs: &[Pvs],
-    measured: &[usize],
-    buffers: &[Vec<IdBuffer>],
-    n: usize,
-    comps: &Components,
-) -> Row {
+/// The table row of one variant: its cells' statistics, and its wrong pixels per view per
+/// triangle and per object (`errors`, see [`Metric::measure`]).
+fn row(name: &str, pvs: &[Pvs], errors: [ErrorStats; 2]) -> Row {
     let mut s = Stats::default();
     for p in pvs {
         s.rays += p.stats.rays;
@@ -474,24 +446,7 @@ fn row(
         s.seconds += p.stats.seconds;
     }
     let pvs_total: usize = pvs.iter().map(|p| p.entries.len()).sum();
-    // (mean, max) wrong pixels per view over the measured cells, the PVS of a cell as a bitset
-    // from `bits`; `None` without views.
-    let errors = |bits: &dyn Fn(&Pvs) -> Vec<u64>| {
-        let (mut sum, mut count, mut max) = (0.0, 0usize, 0u64);
-        for (k, &i) in measured.iter().enumerate() {
-            let (Some(b), Some(p)) = (buffers.get(k), pvs.get(i)) else {
-                continue;
-            };
-            let (mean, m) = error::measure(b, &bits(p));
-            sum += mean * b.len() as f64;
-            count += b.len();
-            max = max.max(m);
-        }
-        (count > 0).then(|| (sum / count as f64, max))
-    };
-    let tri_err = errors(&|p| p.bitset(n));
-    let obj_err =
-        if comps.is_empty() { None } else { errors(&|p| comps.covered(n, p.entries.iter().map(|e| e.tri))) };
+    let [tri_err, obj_err] = errors.map(|e| e.get());
     let cells = pvs.len().max(1);
     Row {
         variant: name.to_string(),
@@ -517,40 +472,133 @@ fn row(
     }
 }
 
-/// The `--missed` listing.
+/// The thesis' error metric over the measured cells, and the cost of its ID buffers.
+struct Metric<'a> {
+    index: &'a SceneIndex<'a>,
+    twins: &'a Twins,
+    args: &'a Args,
+    /// Indices of the measured cells.
+    measured: &'a [usize],
+    /// ID-buffer pixels cast before they are compared and dropped ([`PIXEL_BUDGET`]).
+    budget: usize,
+    /// ID-buffer rays cast so far, their wall-clock seconds and process CPU seconds (`None` where
+    /// the CPU clock cannot be read).
+    rays: u64,
+    seconds: f64,
+    cpu: Option<f64>,
+}
+
+impl<'a> Metric<'a> {
+    fn new(
+        index: &'a SceneIndex<'a>,
+        twins: &'a Twins,
+        args: &'a Args,
+        measured: &'a [usize],
+        budget: usize,
+    ) -> Self {
+        Metric { index, twins, args, measured, budget, rays: 0, seconds: 0.0, cpu: Some(0.0) }
+    }
+
+    /// Wrong pixels per view of each of `rows` (a PVS per cell of `cells`), per triangle and per
+    /// object (the second stays empty without a component table), over `--views` ID buffers from
+    /// each measured cell (cell `i`'s views drawn with seed `seed + i`). Buffers are cast in
+    /// batches of at most `budget` pixels (at least one buffer), compared with every row
+    /// and dropped, so memory does not grow with the number of views. Only the casting is timed.
+    /// With `missed`, the `--missed` listing of the first row, named so, is printed.
+    fn measure(
+        &mut self,
+        cells: &[Cell],
+        seed: u64,
+        rows: &[&[Pvs]],
+        missed: Option<&str>,
+    ) -> Vec<[ErrorStats; 2]> {
+        use rayon::prelude::*;
+        let args = self.args;
+        let mut stats = vec![[ErrorStats::default(); 2]; rows.len()];
+        if args.views == 0 || args.res == 0 {
+            return stats;
+        }
+        let (tris, comps) = (self.index.tris, &self.index.components);
+        let n = tris.len();
+        let batch = (self.budget / (args.res * args.res)).max(1);
+        let bar = progress::bar("error", self.measured.len() as u64, args.json);
+        for &i in self.measured {
+            let Some(cell) = cells.get(i) else {
+                continue;
+            };
+            // Every row's PVS of this cell as bitsets: its triangles, and the triangles of the
+            // components it reaches (`None`: not measured).
+            let bits: Vec<[Option<Vec<u64>>; 2]> = rows
+                .iter()
+                .map(|pvs| match pvs.get(i) {
+                    Some(p) => [
+                        Some(p.bitset(n)),
+                        (!comps.is_empty()).then(|| comps.covered(n, p.entries.iter().map(|e| e.tri))),
+                    ],
+                    None => [None, None],
+                })
+                .collect();
+            let views = error::views(cell, args.views, seed.wrapping_add(i as u64));
+            for (b, chunk) in views.chunks(batch).enumerate() {
+                let (t0, cpu0) = (Instant::now(), cpu_seconds());
+                let buffers: Vec<IdBuffer> = chunk
+                    .iter()
+                    .map(|view| error::id_buffer(&self.index.bvh, tris, self.twins, view, args.res, args.fov))
+                    .collect();
+                self.seconds += t0.elapsed().as_secs_f64();
+                self.cpu = self.cpu.zip(cpu_seconds().zip(cpu0)).map(|(c, (b, a))| c + b - a);
+                self.rays += (chunk.len() * args.res * args.res) as u64;
+                for (k, buf) in buffers.iter().enumerate() {
+                    let wrong: Vec<[Option<u64>; 2]> = bits
+                        .par_iter()
+                        .map(|b| b.each_ref().map(|w| w.as_deref().map(|w| error::error_pixels(buf, w))))
+                        .collect();
+                    for (s, w) in stats.iter_mut().zip(wrong) {
+                        for (s, w) in s.iter_mut().zip(w) {
+                            if let Some(w) = w {
+                                s.add(w);
+                            }
+                        }
+                    }
+                    if let (Some(name), Some([Some(first), _])) = (missed, bits.first()) {
+                        let vi = b * batch + k;
+                        bar.suspend(|| print_missed(args.missed, name, tris, (i, vi), &chunk[k], buf, first));
+                    }
+                }
+            }
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        stats
+    }
+}
+
+/// The `--missed` listing of one view (`at`: cell and view index): its wrong pixels, and the
+/// `top` triangles with most of them.
 fn print_missed(
-    args: &Args,
+    top: usize,
     name: &str,
     tris: &[[Vec3; 3]],
-    cells: &[Cell],
-    pvs: &[Pvs],
-    measured: &[usize],
-    buffers: &[Vec<IdBuffer>],
+    at: (usize, usize),
+    view: &error::View,
+    ids: &IdBuffer,
+    bits: &[u64],
 ) {
-    for (k, &i) in measured.iter().enumerate() {
-        let (Some(cell), Some(p), Some(bufs)) = (cells.get(i), pvs.get(i), buffers.get(k)) else {
+    let m = error::missed(ids, bits);
+    let total: u64 = m.iter().map(|x| x.1).sum();
+    println!("{name} cell {} view {}: {total} wrong pixels on {} triangles", at.0, at.1, m.len());
+    for &(t, px) in m.iter().take(top) {
+        let Some(tri) = tris.get(t as usize) else {
             continue;
         };
-        let bits = p.bitset(tris.len());
-        let views = error::views(cell, args.views, args.seed.wrapping_add(i as u64));
-        for (vi, (view, ids)) in views.iter().zip(bufs).enumerate() {
-            let m = error::missed(ids, &bits);
-            let total: u64 = m.iter().map(|x| x.1).sum();
-            println!("{name} cell {i} view {vi}: {total} wrong pixels on {} triangles", m.len());
-            for &(t, px) in m.iter().take(args.missed) {
-                let Some(tri) = tris.get(t as usize) else {
-                    continue;
-                };
-                let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
-                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-                let to_eye = (view.eye - centre).normalize_or_zero();
-                println!(
-                    "  triangle {t}: {px} px, {:.2} from the eye, |cos| {:.3}",
-                    (centre - view.eye).length(),
-                    n.dot(to_eye).abs()
-                );
-            }
-        }
+        let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+        let to_eye = (view.eye - centre).normalize_or_zero();
+        println!(
+            "  triangle {t}: {px} px, {:.2} from the eye, |cos| {:.3}",
+            (centre - view.eye).length(),
+            n.dot(to_eye).abs()
+        );
     }
 }
 
@@ -772,4 +820,77 @@ fn cpu_seconds() -> Option<f64> {
     let stime: f64 = f.get(12)?.parse().ok()?;
     // Linux reports clock ticks; USER_HZ is 100 on every mainstream configuration.
     Some((utime + stime) / 100.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn args(line: &[&str]) -> Args {
+        Cli::parse_from(std::iter::once("gvs").chain(line.iter().copied())).args
+    }
+
+    #[test]
+    fn the_error_metric_is_the_same_cast_one_buffer_at_a_time_or_all_at_once() {
+        let scene = crate::scenegen::spheres(60, false, 2);
+        let index = SceneIndex::build(&scene.triangles);
+        let twins = Twins::build(&scene.triangles, &index.bvh);
+        let cells: Vec<Cell> = scene.cells[..2].iter().map(|&(lo, hi)| Cell::new(lo, hi)).collect();
+        let cells = &cells[..];
+        let a = args(&["gen:spheres:60", "--views", "3", "--res", "64"]);
+        let pvs: Vec<Vec<Pvs>> = [Variant::EdgePoint, BEST]
+            .map(|v| gvs::run_cells(&index, cells, v.params(params(&a)), &|| {}))
+            .into();
+        let rows: Vec<&[Pvs]> = pvs.iter().map(Vec::as_slice).collect();
+        let measured = [0, 1];
+        // One buffer per batch, and every buffer in one batch.
+        let mut one = Metric::new(&index, &twins, &a, &measured, 1);
+        let mut all = Metric::new(&index, &twins, &a, &measured, usize::MAX);
+        let got = one.measure(cells, 5, &rows, None);
+        assert_eq!(got, all.measure(cells, 5, &rows, None));
+        assert_eq!((one.rays, all.rays), (2 * 3 * 64 * 64, 2 * 3 * 64 * 64));
+        // The edge-point walk alone leaves wrong pixels here, so the comparison counts something.
+        assert!(got[0][0].get().is_some_and(|(mean, _)| mean > 0.0), "{got:?}");
+        // Against the definition: every view's buffer counted directly.
+        for (r, p) in pvs.iter().enumerate() {
+            let mut want = ErrorStats::default();
+            for (c, cell) in cells.iter().enumerate() {
+                let bits = p[c].bitset(scene.triangles.len());
+                for view in error::views(cell, 3, 5 + c as u64) {
+                    let buf = error::id_buffer(&index.bvh, &scene.triangles, &twins, &view, 64, a.fov);
+                    want.add(error::error_pixels(&buf, &bits));
+                }
+            }
+            assert_eq!(got[r][0], want, "row {r}");
+            assert!(got[r][1].get().is_some(), "row {r}: the per-object error is measured");
+        }
+    }
+
+    #[test]
+    fn arguments_that_would_switch_part_of_the_work_off_are_errors() {
+        for bad in [
+            &["--fov", "0"][..],
+            &["--fov", "180"],
+            &["--fov", "NaN"],
+            &["--res", "9000"],
+            &["--eps", "NaN"],
+            &["--eps", "0"],
+            &["--disc", "1"],
+            &["--adt", "inf"],
+            &["--variant", "nope"],
+            &["--compare", "--move", "1,NaN,0"],
+        ] {
+            let a = args(&[&["gen:spheres:10"][..], bad].concat());
+            assert!(check(&a).is_err(), "{bad:?} accepted");
+        }
+        let ok = check(&args(&["gen:spheres:10", "--compare", "--move", "1,0,0", "--eps", "0.01"]));
+        assert!(ok.is_ok_and(|c| c.variants.len() == Variant::ALL.len() && c.shift == Some(Vec3::X)));
+    }
 }

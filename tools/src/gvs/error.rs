@@ -178,14 +178,27 @@ pub fn missed(buf: &IdBuffer, pvs: &[u64]) -> Vec<(u32, u64)> {
     m
 }
 
-/// Error of one PVS against precomputed ID buffers: (mean, max) wrong pixels per view.
-///
-/// (See [`missed`] for which triangles they are.)
-pub fn measure(buffers: &[IdBuffer], pvs: &[u64]) -> (f64, u64) {
-    let errs: Vec<u64> = buffers.iter().map(|b| error_pixels(b, pvs)).collect();
-    let max = errs.iter().copied().max().unwrap_or(0);
-    let mean = if errs.is_empty() { 0.0 } else { errs.iter().sum::<u64>() as f64 / errs.len() as f64 };
-    (mean, max)
+/// Wrong pixels per view, added up one view at a time (the ID buffers need not be kept): the
+/// mean and the largest.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ErrorStats {
+    total: u64,
+    views: u64,
+    max: u64,
+}
+
+impl ErrorStats {
+    /// Count one view with `wrong` wrong pixels ([`error_pixels`]).
+    pub fn add(&mut self, wrong: u64) {
+        self.total += wrong;
+        self.views += 1;
+        self.max = self.max.max(wrong);
+    }
+
+    /// (mean, max) wrong pixels per view; `None` before any view.
+    pub fn get(&self) -> Option<(f64, u64)> {
+        (self.views > 0).then(|| (self.total as f64 / self.views as f64, self.max))
+    }
 }
 
 #[cfg(test)]
@@ -202,7 +215,12 @@ mod tests {
         assert_eq!(missed(&buf, &pvs), vec![(2, 3), (70, 1)]);
         assert_eq!(error_pixels(&buf, &pvs), 4);
         let one = IdBuffer { ids: vec![1], ties: Vec::new() };
-        assert_eq!(measure(&[buf.clone(), one], &pvs), (2.0, 4));
+        let mut stats = ErrorStats::default();
+        assert_eq!(stats.get(), None);
+        for b in [&buf, &one] {
+            stats.add(error_pixels(b, &pvs));
+        }
+        assert_eq!(stats.get(), Some((2.0, 4)));
         // Pixel 1's triangle 2 ties with 64 (in the PVS), pixel 4's with 3 (not), and pixel 5's
         // triangle 64 is in the PVS anyway.
         let tied = IdBuffer { ties: vec![(1, 64), (4, 3), (5, 2)], ..buf };

@@ -33,7 +33,7 @@ use sightline_runtime::bvh::Bvh;
 pub use components::Components;
 pub use geom::Cell;
 pub use neighbours::Neighbours;
-pub use sampler::{EdgeMode, Params, Pvs, Stats};
+pub use sampler::{EdgeMode, ParamError, Params, Pvs, Stats};
 pub use targets::TargetGroups;
 pub use twins::Twins;
 

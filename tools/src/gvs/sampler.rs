@@ -122,6 +122,40 @@ impl Default for Params {
     }
 }
 
+/// A [`Params`] field outside the range its documentation gives.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    /// `eps` is not in (0, 1] radians.
+    #[error("eps {0}: the enlarged outline's angular offset must be in (0, 1] radians")]
+    Eps(f32),
+    /// `disc` is not in [0, 1).
+    #[error("disc {0}: the relative depth-discontinuity threshold must be in [0, 1)")]
+    Disc(f32),
+    /// `adt` is not a positive, finite angle.
+    #[error("adt {0}: the distance-scaled threshold must be a positive number of radians")]
+    Adt(f32),
+}
+
+impl Params {
+    /// Check the ranges of the floating-point fields: `eps` in (0, 1], `disc` in [0, 1), `adt`
+    /// positive and finite. A NaN in any of them would not fail a run but silently turn a part of
+    /// GVS off (a NaN `eps` casts no edge rays, a NaN `disc` finds no discontinuity), so callers
+    /// taking parameters from users check them first. The integer fields have no invalid values:
+    /// `max_rays` bounds every run.
+    pub fn check(&self) -> Result<(), ParamError> {
+        if !(self.eps > 0.0 && self.eps <= 1.0) {
+            return Err(ParamError::Eps(self.eps));
+        }
+        if !(self.disc >= 0.0 && self.disc < 1.0) {
+            return Err(ParamError::Disc(self.disc));
+        }
+        match self.adt {
+            Some(a) if !(a > 0.0 && a.is_finite()) => Err(ParamError::Adt(a)),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// Ray counts and other statistics of one run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Stats {
@@ -986,4 +1020,33 @@ fn run_with(
     g.run();
     g.stats.seconds = start.elapsed().as_secs_f64();
     (Pvs { cell, entries: g.entries, stats: g.stats }, g.record)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ParamError, Params};
+
+    #[test]
+    fn check_accepts_the_defaults_and_every_variant_and_rejects_what_turns_gvs_off() {
+        assert_eq!(Params::default().check(), Ok(()));
+        for v in super::super::Variant::ALL {
+            assert_eq!(v.params(Params::default()).check(), Ok(()), "{}", v.name());
+        }
+        let with = |f: fn(&mut Params)| {
+            let mut p = Params::default();
+            f(&mut p);
+            p.check()
+        };
+        assert!(matches!(with(|p| p.eps = f32::NAN), Err(ParamError::Eps(_))));
+        assert_eq!(with(|p| p.eps = 0.0), Err(ParamError::Eps(0.0)));
+        assert_eq!(with(|p| p.eps = 2.0), Err(ParamError::Eps(2.0)));
+        assert_eq!(with(|p| p.eps = 1.0), Ok(()));
+        assert!(matches!(with(|p| p.disc = f32::NAN), Err(ParamError::Disc(_))));
+        assert_eq!(with(|p| p.disc = -0.1), Err(ParamError::Disc(-0.1)));
+        assert_eq!(with(|p| p.disc = 1.0), Err(ParamError::Disc(1.0)));
+        assert_eq!(with(|p| p.disc = 0.0), Ok(()));
+        assert_eq!(with(|p| p.adt = Some(f32::INFINITY)), Err(ParamError::Adt(f32::INFINITY)));
+        assert_eq!(with(|p| p.adt = Some(0.0)), Err(ParamError::Adt(0.0)));
+        assert_eq!(with(|p| p.adt = Some(1e-4)), Ok(()));
+    }
 }
