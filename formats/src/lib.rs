@@ -1,4 +1,5 @@
-//! Sightline's shared vocabulary: geometry primitives, the level data model, and every on-disk
+//! Sightline's shared vocabulary: geometry primitives, bit rows (`bits`, as PVS rows are held in
+//! memory), the level data model, and every on-disk
 //! format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, and `.slvl`).
 //!
 //! Readers never panic on hostile input and never allocate more than the input can justify: every
@@ -6,6 +7,7 @@
 //! Text formats report `file:line:col`, binary formats a byte offset.
 
 pub mod atomic;
+pub mod bits;
 pub mod bsp;
 pub mod geom;
 mod le;

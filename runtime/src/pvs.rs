@@ -1,6 +1,8 @@
 //! PVS rows: a small bitset, decoding of a cluster's Quake-RLE row into it, and the PVS of every
 //! cluster turned once at load into a pruned tree for the walk ([`ClusterTrees`]).
 
+use sightline_formats::bits;
+
 use crate::layout::{MarkSet, WalkTree};
 use crate::world::World;
 
@@ -138,7 +140,7 @@ pub struct Bitset {
 impl Bitset {
     /// `len` bits, all clear.
     pub fn new(len: usize) -> Self {
-        Self { words: vec![0; len.div_ceil(64)], len }
+        Self { words: vec![0; bits::words(len)], len }
     }
 
     /// Number of bits.
@@ -154,23 +156,21 @@ impl Bitset {
     /// Change the length to `len` bits, all clear (allocates only when growing past capacity).
     pub fn reset(&mut self, len: usize) {
         self.words.clear();
-        self.words.resize(len.div_ceil(64), 0);
+        self.words.resize(bits::words(len), 0);
         self.len = len;
     }
 
     /// Bit `i` (false when out of range).
     #[inline]
     pub fn get(&self, i: usize) -> bool {
-        self.words.get(i >> 6).is_some_and(|w| w >> (i & 63) & 1 != 0)
+        bits::get(&self.words, i)
     }
 
     /// Set bit `i` (ignored when out of range).
     #[inline]
     pub fn set(&mut self, i: usize) {
-        if i < self.len
-            && let Some(w) = self.words.get_mut(i >> 6)
-        {
-            *w |= 1 << (i & 63);
+        if i < self.len {
+            bits::set(&mut self.words, i);
         }
     }
 
@@ -182,22 +182,12 @@ impl Bitset {
 
     /// Number of set bits.
     pub fn count_ones(&self) -> usize {
-        self.words.iter().map(|w| w.count_ones() as usize).sum()
+        bits::count(&self.words) as usize
     }
 
     /// Indices of set bits, ascending.
     pub fn iter_ones(&self) -> impl Iterator<Item = usize> + '_ {
-        self.words.iter().enumerate().flat_map(|(wi, &w)| {
-            let mut w = w;
-            std::iter::from_fn(move || {
-                if w == 0 {
-                    return None;
-                }
-                let b = w.trailing_zeros() as usize;
-                w &= w - 1;
-                Some(wi * 64 + b)
-            })
-        })
+        bits::ones(&self.words)
     }
 
     /// The 64-bit words, bit `i` in word `i / 64`, bit `i % 64`.

@@ -9,8 +9,8 @@
 
 use rayon::prelude::*;
 
-use super::bits;
 use super::graph::{Graph, OneWay};
+use sightline_formats::bits;
 
 /// Points closer than this to a portal's plane count as lying in it for the front/back tests
 /// (units; far below the 1/8-unit precision Quake BSP coordinates carry).

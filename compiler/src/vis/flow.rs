@@ -30,10 +30,10 @@
 use glam::DVec3;
 use sightline_formats::geom::Plane;
 
-use super::bits;
 use super::certify;
 use super::graph::Graph;
 use super::poly::{CLIP_EPSILON, Clip, Poly, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator};
+use sightline_formats::bits;
 
 /// Normals whose dot product is at most `-1 + this` are opposite: a line that entered through one
 /// cannot leave through the other.

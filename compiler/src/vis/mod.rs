@@ -34,7 +34,6 @@
 //!   continues after them, producing the same result as an uninterrupted run.
 
 mod base;
-mod bits;
 mod certify;
 mod flow;
 mod graph;
@@ -48,6 +47,7 @@ use std::sync::{Arc, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
+use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
 
 pub use base::COPLANAR_EPSILON;

@@ -7,7 +7,7 @@
 //! `s` may be cleared from row `r`. Clearing only removes portals no line reaches: rows stay
 //! conservative, and the flow prunes more.
 
-use super::bits;
+use sightline_formats::bits;
 
 /// Bit `s` of row `r`, where rows are `words` words each.
 #[inline]
