@@ -1,16 +1,21 @@
 //! What a brush is made of, decided from its texture names as Quake's tools do, and what an entity
 //! contributes to the level.
 //!
-//! Rules (first match wins, over all sides of a brush):
-//! - a side textured `*lava…` makes lava, `*slime…` slime, any other `*…` water;
-//! - `sky…` makes sky (drawn as sky; opaque to sight, so no portal joins sky to anything else;
-//!   the outside flood stops at it);
-//! - `hint…`: a hint brush: not solid, its hint sides are splitters chosen before any other;
-//! - `clip…`: blocks movement only, so it makes no faces and does not block sight;
-//! - `trigger…`: a trigger volume: no faces, not solid;
-//! - anything else is solid. A `skip…` side of any brush makes no face.
+//! Each side's name is classified by [`sightline_formats::texture`], which owns the name rules
+//! (and which sides draw no face). Over all sides of a brush, the first match wins:
+//! - a liquid side (`*lava…` lava, `*slime…` slime, any other `*…` water) makes that liquid (the
+//!   first liquid side decides);
+//! - a `sky…` side makes sky (drawn as sky; opaque to sight, so no portal joins sky to anything
+//!   else; the outside flood stops at it);
+//! - a `hint…` side makes a hint brush: not solid, its hint sides are splitters chosen before any
+//!   other;
+//! - a brush of `clip…` sides (and `skip…` ones) blocks movement only, so it makes no faces and
+//!   does not block sight;
+//! - a brush of `trigger…` sides (and `skip…` ones) is a trigger volume: no faces, not solid;
+//! - anything else is solid (`origin…` sides count as ordinary sides here).
 
 use sightline_formats::Contents;
+use sightline_formats::texture::TextureKind;
 
 /// The kind of a brush, from its textures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -25,44 +30,21 @@ pub enum BrushKind {
     Trigger,
 }
 
-fn lower_starts(name: &str, prefix: &str) -> bool {
-    name.len() >= prefix.len() && name.as_bytes()[..prefix.len()].eq_ignore_ascii_case(prefix.as_bytes())
-}
-
-/// True when a side with this texture makes no drawn face (tool textures).
-pub fn is_nodraw_texture(name: &str) -> bool {
-    ["skip", "hint", "clip", "trigger", "origin"].iter().any(|p| lower_starts(name, p))
-}
-
-/// True for a hint side.
-pub fn is_hint_texture(name: &str) -> bool {
-    lower_starts(name, "hint")
-}
-
 /// The kind of a brush with sides textured `textures`.
 pub fn brush_kind<'a, I: IntoIterator<Item = &'a str>>(textures: I) -> BrushKind {
     let (mut liquid, mut sky, mut hint, mut clip, mut trigger, mut other) =
         (None, false, false, false, false, false);
     for t in textures {
-        if let Some(rest) = t.strip_prefix('*') {
-            let c = if lower_starts(rest, "lava") {
-                Contents::Lava
-            } else if lower_starts(rest, "slime") {
-                Contents::Slime
-            } else {
-                Contents::Water
-            };
-            liquid.get_or_insert(c);
-        } else if lower_starts(t, "sky") {
-            sky = true;
-        } else if lower_starts(t, "hint") {
-            hint = true;
-        } else if lower_starts(t, "clip") {
-            clip = true;
-        } else if lower_starts(t, "trigger") {
-            trigger = true;
-        } else if !lower_starts(t, "skip") {
-            other = true;
+        match TextureKind::of(t) {
+            k @ (TextureKind::Water | TextureKind::Slime | TextureKind::Lava) => {
+                liquid = liquid.or(k.contents());
+            }
+            TextureKind::Sky => sky = true,
+            TextureKind::Hint => hint = true,
+            TextureKind::Clip => clip = true,
+            TextureKind::Trigger => trigger = true,
+            TextureKind::Skip => {}
+            TextureKind::Origin | TextureKind::Solid => other = true,
         }
     }
     if let Some(c) = liquid {
@@ -149,8 +131,9 @@ mod tests {
         assert_eq!(brush_kind(["trigger"]), BrushKind::Trigger);
         assert_eq!(brush_kind(["hint", "skip"]), BrushKind::Hint);
         assert_eq!(brush_kind(["wbrick1_5", "skip"]), BrushKind::Contents(Contents::Solid));
-        assert!(is_nodraw_texture("SKIP"));
-        assert!(!is_nodraw_texture("sky1"));
+        assert_eq!(brush_kind(["clip", "origin"]), BrushKind::Contents(Contents::Solid));
+        assert_eq!(brush_kind(["trigger", "skip"]), BrushKind::Trigger);
+        assert_eq!(brush_kind(["*lava1", "*slime"]), BrushKind::Contents(Contents::Lava));
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //! [`compile`] runs the phases in order: `csg` (brush windings, contents, face clipping), `bsp`
 //! (brush BSP of the world, detail last; one per submodel), `portals`, `outside` (flood from the
 //! void, leak check, fill), `emit` (level and `.prt`), and `vis` when asked ([`vis`], then the
-//! rows are stored Quake-RLE per cluster by [`store_pvs`]). Output is identical for any thread count:
+//! rows are stored Quake-RLE per cluster by [`store_pvs`]; [`visdata`] also stores them in Quake
+//! `.bsp` and `.vis` files). Output is identical for any thread count:
 //! parallel steps collect in input order and tree building uses `rayon::join` only.
 
 pub mod brush;
@@ -16,6 +17,9 @@ pub mod mesh;
 pub mod outside;
 pub mod portals;
 pub mod vis;
+pub mod visdata;
+
+pub use visdata::store_pvs;
 
 use std::time::Instant;
 
@@ -51,6 +55,43 @@ pub enum Source {
         /// File name for messages.
         file: String,
     },
+}
+
+/// Why [`Source::read`] failed; every variant names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SourceError {
+    /// The `.map` could not be read.
+    #[error("reading {file}")]
+    Read {
+        /// The file.
+        file: String,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The `.map` does not parse.
+    #[error(transparent)]
+    Map(#[from] sightline_formats::map::MapError),
+    /// The `.obj` could not be loaded.
+    #[error(transparent)]
+    Obj(#[from] sightline_formats::obj::ObjError),
+}
+
+impl Source {
+    /// Reads `path`: an `.obj` ([`sightline_formats::FileKind::from_extension`]) as a mesh, any
+    /// other file as a `.map`. The file name kept for messages is `path` as given.
+    pub fn read(path: &std::path::Path) -> Result<Self, SourceError> {
+        let file = path.display().to_string();
+        if sightline_formats::FileKind::from_extension(path) == Some(sightline_formats::FileKind::Obj) {
+            let mesh = mesh::Mesh::from(&sightline_formats::obj::load(path)?);
+            return Ok(Source::Mesh { mesh, file });
+        }
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| SourceError::Read { file: file.clone(), source })?;
+        let map = sightline_formats::map::parse(&text, &file)?;
+        Ok(Source::Map { map, file })
+    }
 }
 
 /// Options of [`compile`].
@@ -238,7 +279,7 @@ pub enum CompileError {
     Leak(Box<LeakReport>),
     /// Vis failed, or stopped on request ([`vis::VisError::Interrupted`]: with a state file, the
     /// same compile resumes from it).
-    #[error("vis: {0}")]
+    #[error("vis")]
     Vis(#[from] vis::VisError),
     /// Vis returned rows for another number of clusters than the level has.
     #[error("vis returned {got} clusters for {want}")]
@@ -271,24 +312,6 @@ pub struct Compiled {
     pub leak: Option<LeakReport>,
     /// Vis statistics when vis ran.
     pub vis: Option<vis::VisStats>,
-}
-
-/// Store vis rows in `level`: one Quake-RLE row per cluster (see [`Level`]'s conventions).
-pub fn store_pvs(level: &mut Level, result: &vis::VisResult) {
-    let clusters = result.num_clusters();
-    let row_bytes = clusters.div_ceil(8);
-    let mut bytes = Vec::with_capacity(row_bytes + 8);
-    level.pvs_offsets.clear();
-    level.pvs_data.clear();
-    for c in 0..clusters {
-        bytes.clear();
-        for word in result.cluster_row(c) {
-            bytes.extend_from_slice(&word.to_le_bytes());
-        }
-        bytes.truncate(row_bytes);
-        level.pvs_offsets.push(level.pvs_data.len() as u32);
-        sightline_formats::rle::encode_row(&bytes, &mut level.pvs_data);
-    }
 }
 
 /// Adapts vis progress reports (phase, done, total) to a [`Progress`].

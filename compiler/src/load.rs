@@ -4,10 +4,11 @@ use std::collections::HashMap;
 
 use sightline_formats::geom::WORLD_LIMIT;
 use sightline_formats::map::{Entity, MapFile};
+use sightline_formats::texture::TextureKind;
 use sightline_formats::{Contents, PlaneSet};
 
 use crate::brush::{Brush, BrushProblem, NO_TEXTURE, SideSpec};
-use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role, is_hint_texture, is_nodraw_texture};
+use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role};
 use crate::csg::{CsgBrush, clip_faces};
 use crate::outside::Seed;
 use crate::{CompileError, Prepared, Progress, Source, Stats};
@@ -114,7 +115,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                 }
                 specs.push(SideSpec {
                     plane: planes.insert(s.plane) as u32,
-                    hint: is_hint_texture(&s.texture),
+                    hint: TextureKind::of(&s.texture) == TextureKind::Hint,
                 });
             }
             let (brush, side_map) = Brush::from_planes(&planes, &specs, contents).map_err(|p| match p {
@@ -134,7 +135,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
             let mut side_textures = vec![NO_TEXTURE; brush.sides.len()];
             for (spec_i, s) in b.sides.iter().enumerate() {
                 let Some(Some(side_i)) = side_map.get(spec_i) else { continue };
-                if kind == BrushKind::Hint || is_nodraw_texture(&s.texture) {
+                if kind == BrushKind::Hint || !TextureKind::of(&s.texture).draws() {
                     continue;
                 }
                 let next = textures.len() as u32;

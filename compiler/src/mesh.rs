@@ -28,6 +28,14 @@ pub struct Mesh {
     pub triangles: Vec<[DVec3; 3]>,
 }
 
+impl From<&sightline_formats::obj::TriMesh> for Mesh {
+    /// The triangles of an `.obj` mesh, in file order (a triangle with an index out of range is
+    /// left out).
+    fn from(obj: &sightline_formats::obj::TriMesh) -> Self {
+        Self { triangles: (0..obj.triangles.len()).filter_map(|i| obj.triangle(i)).collect() }
+    }
+}
+
 #[derive(Debug, Clone)]
 struct Poly {
     plane: u32,

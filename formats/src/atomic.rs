@@ -1,12 +1,23 @@
-//! Crash-safe file writing, used by every writer in the project.
+//! Crash-safe file writing: the one way every writer in the project (levels, portal files,
+//! pointfiles, BSPs written by vis, vis checkpoints, images) puts a file on disk.
+//!
+//! # Conventions
+//! - The bytes go to a new temporary file in the target's own folder (so the rename cannot cross
+//!   file systems), named `.<file name>.<process id>.<counter>.tmp`: unique within the process
+//!   and across processes, and created exclusively, so a concurrent writer is never clobbered.
+//! - The temporary file gets the permissions of the file it replaces, when there is one.
+//! - It is flushed to disk (`fsync`) and then renamed over the target; on Unix the folder is then
+//!   synced too, so the rename itself survives a crash.
+//! - On any error the temporary file is removed: a failed write leaves neither a partial target
+//!   nor a stray temporary file.
 
-use std::fs::{self, File};
+use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`, never
-/// a partial file: the bytes go to a temporary file in the same folder, which is flushed to disk
-/// (`fsync`) and then renamed over `path`; the folder is synced too where the platform allows.
+/// a partial file (see the module docs).
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -15,13 +26,12 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let name = path.file_name().ok_or_else(|| {
         io::Error::new(io::ErrorKind::InvalidInput, format!("{} names no file", path.display()))
     })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = dir.join(tmp_name);
+    let (tmp, mut file) = create_temporary(dir, name)?;
     let result = (|| {
-        let mut file = File::create(&tmp)?;
         file.write_all(bytes)?;
+        if let Ok(meta) = fs::metadata(path) {
+            file.set_permissions(meta.permissions())?;
+        }
         file.sync_all()?;
         drop(file);
         fs::rename(&tmp, path)
@@ -31,29 +41,100 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
         let _ = fs::remove_file(&tmp);
         return result;
     }
-    // Persist the rename itself. Opening a directory is not possible everywhere (Windows), and
-    // the data is already safe in the file, so failures here are ignored.
+    sync_dir(dir);
+    Ok(())
+}
+
+/// Creates a fresh temporary file for `name` in `dir`; never opens an existing file.
+fn create_temporary(dir: &Path, name: &std::ffi::OsStr) -> io::Result<(PathBuf, File)> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    loop {
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        tmp_name.push(format!(".{}.{n}.tmp", std::process::id()));
+        let tmp = dir.join(tmp_name);
+        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => return Ok((tmp, file)),
+            // Left behind by a crashed process that had the same id: take the next name.
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Persists a rename in `dir`. The data is already safe in the file, so failures are ignored.
+#[cfg(unix)]
+fn sync_dir(dir: &Path) {
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
     }
-    Ok(())
 }
+
+/// Directories cannot be opened as files on this platform; the rename is left to the system.
+#[cfg(not(unix))]
+fn sync_dir(_dir: &Path) {}
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn temp_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("sightline-atomic-{tag}-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn names(dir: &Path) -> Vec<std::ffi::OsString> {
+        let mut names: Vec<_> = fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        names.sort();
+        names
+    }
+
     #[test]
     fn replaces_content_and_leaves_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("sightline-atomic-{}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
+        let dir = temp_dir("replace");
         let path = dir.join("level.slvl");
         write_file_atomic(&path, b"first").unwrap();
         write_file_atomic(&path, b"second").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"second");
-        let names: Vec<_> = fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert_eq!(names, [std::ffi::OsString::from("level.slvl")]);
+        assert_eq!(names(&dir), [std::ffi::OsString::from("level.slvl")]);
         assert!(write_file_atomic(&dir.join("missing/x"), b"x").is_err());
+        assert!(write_file_atomic(&dir, b"x").is_err(), "a folder is not replaced by a file");
+        assert_eq!(names(&dir), [std::ffi::OsString::from("level.slvl")], "no temporary left");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn concurrent_writers_never_mix() {
+        let dir = temp_dir("threads");
+        let path = dir.join("out.bin");
+        std::thread::scope(|s| {
+            for t in 0..4u8 {
+                let path = &path;
+                s.spawn(move || {
+                    for _ in 0..20 {
+                        write_file_atomic(path, &[t; 4096]).unwrap();
+                    }
+                });
+            }
+        });
+        let bytes = fs::read(&path).unwrap();
+        assert!(bytes.len() == 4096 && bytes.iter().all(|&b| b == bytes[0]));
+        assert_eq!(names(&dir), [std::ffi::OsString::from("out.bin")]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn keeps_the_permissions_of_the_file_it_replaces() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = temp_dir("perms");
+        let path = dir.join("map.bsp");
+        write_file_atomic(&path, b"old").unwrap();
+        fs::set_permissions(&path, fs::Permissions::from_mode(0o640)).unwrap();
+        write_file_atomic(&path, b"new").unwrap();
+        assert_eq!(fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o640);
         fs::remove_dir_all(&dir).unwrap();
     }
 }

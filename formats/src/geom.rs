@@ -26,7 +26,8 @@ pub const WORLD_LIMIT: f64 = 1.0e6;
 pub const BASE_WINDING_SIZE: f64 = 4.0 * WORLD_LIMIT;
 
 /// Which way a plane's normal points, as Quake classifies it (used to pick fast paths).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum PlaneKind {
     /// Normal is exactly ±X.
     AxialX,
@@ -89,7 +90,8 @@ pub enum Side {
 }
 
 /// An oriented plane `normal · p = dist`; see the module docs for the front-side convention.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Plane {
     /// Unit normal, pointing to the front side.
     pub normal: DVec3,
@@ -175,7 +177,8 @@ impl Plane {
 }
 
 /// An axis-aligned box. An empty box has `mins > maxs` (see [`Aabb::EMPTY`]).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Aabb {
     /// Smallest corner.
     pub mins: DVec3,
@@ -259,7 +262,8 @@ impl Aabb {
 }
 
 /// A convex planar polygon; see the module docs for the point order.
-#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Winding {
     /// The corners, clockwise seen from the front.
     pub points: Vec<DVec3>,

@@ -17,10 +17,14 @@
 //!   is the byte offset of row `c` in `pvs_data`. An empty `pvs_offsets` means "no vis: everything
 //!   visible".
 
-use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::bits;
+use crate::rle::{self, RleError};
 
 /// What fills a leaf. The numeric values are Quake's `CONTENTS_*` codes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[repr(i32)]
 pub enum Contents {
     /// Open air.
@@ -64,7 +68,8 @@ impl Contents {
 }
 
 /// A plane as stored: unit normal and distance.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct LevelPlane {
     /// Unit normal (front side is where it points).
     pub normal: [f32; 3],
@@ -73,7 +78,8 @@ pub struct LevelPlane {
 }
 
 /// An interior node of the BSP tree.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Node {
     /// Index into [`Level::planes`].
     pub plane: u32,
@@ -86,7 +92,8 @@ pub struct Node {
 }
 
 /// A convex cell of the tree.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Leaf {
     /// What fills it.
     pub contents: Contents,
@@ -103,7 +110,8 @@ pub struct Leaf {
 }
 
 /// A drawable polygon.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Face {
     /// Index into [`Level::planes`]; the face is seen from the plane's front.
     pub plane: u32,
@@ -116,7 +124,8 @@ pub struct Face {
 }
 
 /// An opening between two non-solid leaves.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Portal {
     /// Front-side leaf then back-side leaf of `plane`.
     pub leaves: [u32; 2],
@@ -129,7 +138,8 @@ pub struct Portal {
 }
 
 /// A brush model: model 0 is the world, the others are brush entities (doors, platforms...).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Model {
     /// Root of the model's tree, encoded like a node child.
     pub head_node: i32,
@@ -145,7 +155,8 @@ pub struct Model {
 
 /// Everything a compiled level holds. Indices are validated when a level is read from disk, so
 /// code holding a `Level` from [`crate::slvl::read`] may index without checks.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Level {
     /// The entity text, Quake `.map` syntax without brushes.
     pub entities: String,
@@ -180,7 +191,8 @@ pub struct Level {
 }
 
 /// A box view cell with the faces guided visibility sampling found visible from it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GvsCell {
     /// Bounds of the view cell.
     pub mins: [f32; 3],
@@ -195,11 +207,90 @@ pub struct GvsCell {
 impl Level {
     /// Bytes in one uncompressed PVS row.
     pub fn row_bytes(&self) -> usize {
-        (self.num_clusters as usize).div_ceil(8)
+        crate::bits::bytes::len(self.num_clusters as usize)
     }
 
     /// True when the level carries a PVS.
     pub fn has_vis(&self) -> bool {
         !self.pvs_offsets.is_empty()
     }
+
+    /// Leaves that belong to a cluster (vis leaves).
+    pub fn vis_leaves(&self) -> usize {
+        self.leaves.iter().filter(|l| l.cluster >= 0).count()
+    }
+
+    /// Visible-leaf counts over the vis leaves, counted in leaves: a vis leaf sees the leaves of
+    /// every cluster set in its cluster's row, and every vis leaf when the level has no PVS.
+    /// `None` without vis leaves. A row that is missing or does not decode is an error.
+    pub fn pvs_stats(&self) -> Result<Option<PvsStats>, PvsError> {
+        let vis_leaves = self.vis_leaves();
+        if vis_leaves == 0 {
+            return Ok(None);
+        }
+        let clusters = self.num_clusters as usize;
+        let mut leaves_in = vec![0usize; clusters];
+        for leaf in &self.leaves {
+            if let Some(n) = usize::try_from(leaf.cluster).ok().and_then(|c| leaves_in.get_mut(c)) {
+                *n += 1;
+            }
+        }
+        // Visible leaves seen from each cluster.
+        let mut seen = vec![vis_leaves; clusters];
+        if self.has_vis() {
+            let mut row = vec![0u8; self.row_bytes()];
+            for (cluster, seen) in seen.iter_mut().enumerate() {
+                let offset = self.pvs_offsets.get(cluster).map_or(usize::MAX, |&o| o as usize);
+                let data = self.pvs_data.get(offset..).ok_or(PvsError::RowOffset { cluster })?;
+                rle::decode_row(data, row.len(), &mut row)
+                    .map_err(|source| PvsError::Row { cluster, source })?;
+                *seen = leaves_in
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| bits::bytes::get(&row, j))
+                    .map(|(_, n)| n)
+                    .sum();
+            }
+        }
+        let mut total = 0usize;
+        let mut max = 0usize;
+        for leaf in &self.leaves {
+            let Some(&n) = usize::try_from(leaf.cluster).ok().and_then(|c| seen.get(c)) else { continue };
+            total += n;
+            max = max.max(n);
+        }
+        Ok(Some(PvsStats { vis_leaves, avg_visible: total as f64 / vis_leaves as f64, max_visible: max }))
+    }
+}
+
+/// Summary of a level's PVS, counted in leaves ([`Level::pvs_stats`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PvsStats {
+    /// Leaves with a cluster.
+    pub vis_leaves: usize,
+    /// Mean number of leaves a vis leaf sees.
+    pub avg_visible: f64,
+    /// Largest number of leaves one vis leaf sees.
+    pub max_visible: usize,
+}
+
+/// Why [`Level::pvs_stats`] could not decode the PVS.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
+pub enum PvsError {
+    /// A row offset lies beyond `pvs_data`.
+    #[error("cluster {cluster}: row offset out of range")]
+    RowOffset {
+        /// The cluster whose row is missing.
+        cluster: usize,
+    },
+    /// A row does not decode.
+    #[error("cluster {cluster}: bad row")]
+    Row {
+        /// The cluster whose row is damaged.
+        cluster: usize,
+        /// What is wrong with it.
+        #[source]
+        source: RleError,
+    },
 }

@@ -1,6 +1,10 @@
 //! Sightline's shared vocabulary: geometry primitives, bit rows (`bits`, as PVS rows are held in
-//! memory), the level data model, and every on-disk
-//! format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, and `.slvl`).
+//! memory and in files), the level data model, the texture-name rules (`texture`), and every
+//! on-disk format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, `.slvl` and the
+//! `.vis` file), with `kind` telling them apart and `atomic` writing them.
+//!
+//! The `.map` parser (`map`) and the `.obj` loader (`obj`) are behind the features of the same
+//! names; telling those files apart (`kind`) needs neither.
 //!
 //! Readers never panic on hostile input and never allocate more than the input can justify: every
 //! count read from a file is checked against the bytes that remain before anything is allocated.
@@ -10,18 +14,24 @@ pub mod atomic;
 pub mod bits;
 pub mod bsp;
 pub mod geom;
+pub mod kind;
 mod le;
 pub mod level;
+#[cfg(feature = "map")]
 pub mod map;
+#[cfg(feature = "obj")]
 pub mod obj;
 pub mod prt;
 pub mod rle;
 pub mod rng;
 pub mod shared_maps;
 pub mod slvl;
-#[cfg(test)]
+#[cfg(all(test, any(feature = "map", feature = "obj")))]
 mod test_support;
+pub mod texture;
 mod tree_check;
+pub mod visfile;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
+pub use kind::FileKind;
 pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};

@@ -48,7 +48,7 @@ impl TriMesh {
 #[derive(Debug, thiserror::Error)]
 pub enum ObjError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
@@ -68,7 +68,7 @@ pub enum ObjError {
         token: String,
     },
     /// `tobj` rejected the text.
-    #[error("{path}:{line}: {source}")]
+    #[error("{path}:{line}")]
     Parse {
         /// The file.
         path: String,

@@ -39,6 +39,17 @@ pub enum PrtFormat {
     Prt1Am,
 }
 
+impl PrtFormat {
+    /// The first token of a file of this variant: `PRT1`, `PRT2` or `PRT1-AM`.
+    pub fn header(self) -> &'static str {
+        match self {
+            Self::Prt1 => "PRT1",
+            Self::Prt2 => "PRT2",
+            Self::Prt1Am => "PRT1-AM",
+        }
+    }
+}
+
 /// One portal line.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrtPortal {
@@ -145,11 +156,9 @@ const MIN_PORTAL_CHARS: usize = 24;
 pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
     let head = r.next("a header")?;
-    let format = match head.text {
-        "PRT1" => PrtFormat::Prt1,
-        "PRT2" => PrtFormat::Prt2,
-        "PRT1-AM" => PrtFormat::Prt1Am,
-        other => return Err(r.at(&head, PrtErrorKind::BadHeader(shown(other)))),
+    let variants = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am];
+    let Some(format) = variants.into_iter().find(|f| f.header() == head.text) else {
+        return Err(r.at(&head, PrtErrorKind::BadHeader(shown(head.text))));
     };
     let (num_leaves, num_clusters, num_portals);
     match format {
@@ -223,13 +232,14 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
 pub fn write(prt: &PortalFile) -> String {
     let mut s = String::with_capacity(64 + prt.portals.len() * 80);
     // `write!` to a String cannot fail.
+    let head = prt.format.header();
     let _ = match prt.format {
-        PrtFormat::Prt1 => write!(s, "PRT1\n{}\n{}\n", prt.num_leaves, prt.portals.len()),
+        PrtFormat::Prt1 => write!(s, "{head}\n{}\n{}\n", prt.num_leaves, prt.portals.len()),
         PrtFormat::Prt2 => {
-            write!(s, "PRT2\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len())
+            write!(s, "{head}\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len())
         }
         PrtFormat::Prt1Am => {
-            write!(s, "PRT1-AM\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves)
+            write!(s, "{head}\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves)
         }
     };
     for p in &prt.portals {

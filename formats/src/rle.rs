@@ -4,6 +4,10 @@
 //! is written as the two bytes `0, n`. Rows are compressed independently, so any row decodes alone
 //! in `O(row)` time. Decoding stops as soon as the row is full, so rows can be stored back to back
 //! (or share storage, as Quake's leaves of one cluster do) without any length prefix.
+//!
+//! This is the only decoder in Sightline: [`decode_row`] writes a byte row, [`decode_row_words`]
+//! a [`crate::bits`] word row (what the runtime holds, without a byte buffer in between), and
+//! [`decode_row_vec`] allocates the byte row.
 
 use thiserror::Error;
 
@@ -70,6 +74,37 @@ pub fn decode_row(data: &[u8], row_bytes: usize, out: &mut [u8]) -> Result<usize
     let Some(row) = out.get_mut(..row_bytes) else {
         return Err(RleError::OutputTooSmall { len: out.len(), row_bytes });
     };
+    row.fill(0);
+    decode_nonzero(data, row_bytes, |at, byte| {
+        if let Some(b) = row.get_mut(at) {
+            *b = byte;
+        }
+    })
+}
+
+/// Decodes one row of `row_bytes` bytes from the start of `data` straight into a word row (the
+/// [`crate::bits`] layout: the row's byte `j` is bits `8 * (j % 8)..` of word `j / 8`, so the
+/// words' little-endian bytes are the decoded row) and returns how many bytes of `data` it
+/// consumed. The `row_bytes.div_ceil(8)` words of the row are overwritten; `out` may be longer.
+/// Allocates nothing; the same rules and errors as [`decode_row`] (lengths in
+/// [`RleError::OutputTooSmall`] are in bytes).
+#[inline]
+pub fn decode_row_words(data: &[u8], row_bytes: usize, out: &mut [u64]) -> Result<usize, RleError> {
+    let Some(row) = out.get_mut(..row_bytes.div_ceil(8)) else {
+        return Err(RleError::OutputTooSmall { len: out.len().saturating_mul(8), row_bytes });
+    };
+    row.fill(0);
+    decode_nonzero(data, row_bytes, |at, byte| {
+        if let Some(w) = row.get_mut(at >> 3) {
+            *w |= u64::from(byte) << ((at & 7) * 8);
+        }
+    })
+}
+
+/// The decoder: calls `put(j, byte)` for each non-zero byte `j` of the row, in order (zero runs
+/// are skipped, so the caller clears the row first), and returns the bytes of `data` consumed.
+#[inline(always)]
+fn decode_nonzero(data: &[u8], row_bytes: usize, mut put: impl FnMut(usize, u8)) -> Result<usize, RleError> {
     let mut pos = 0;
     let mut filled = 0;
     while filled < row_bytes {
@@ -77,7 +112,7 @@ pub fn decode_row(data: &[u8], row_bytes: usize, out: &mut [u8]) -> Result<usize
             return Err(RleError::Truncated { offset: pos, decoded: filled, row_bytes });
         };
         if byte != 0 {
-            row[filled] = byte;
+            put(filled, byte);
             filled += 1;
             pos += 1;
             continue;
@@ -89,7 +124,6 @@ pub fn decode_row(data: &[u8], row_bytes: usize, out: &mut [u8]) -> Result<usize
         if run > row_bytes - filled {
             return Err(RleError::RunOverflow { offset: pos, run, decoded: filled, row_bytes });
         }
-        row[filled..filled + run].fill(0);
         filled += run;
         pos += 2;
     }
@@ -139,6 +173,11 @@ mod tests {
         assert!(matches!(decode_row(&[1, 0], 4, &mut row), Err(RleError::Truncated { offset: 2, .. })));
         assert!(matches!(decode_row(&[1, 0, 4], 4, &mut row), Err(RleError::RunOverflow { offset: 1, .. })));
         assert!(matches!(decode_row(&[1], 4, &mut [0u8; 2]), Err(RleError::OutputTooSmall { .. })));
+        assert!(matches!(decode_row_words(&[1], 9, &mut [0u64; 1]), Err(RleError::OutputTooSmall { .. })));
+        assert!(matches!(
+            decode_row_words(&[1, 0], 4, &mut [0u64; 1]),
+            Err(RleError::Truncated { offset: 2, .. })
+        ));
         assert!(decode_row_vec(&[0], 1000).is_err());
     }
 
@@ -170,6 +209,12 @@ mod tests {
             prop_assert_eq!(decode_row(&packed, bits.len(), &mut out), Ok(used));
             prop_assert_eq!(&out[..bits.len()], &bits[..]);
             prop_assert_eq!(decode_row_vec(&packed, bits.len()), Ok(bits.clone()));
+            let mut words = vec![u64::MAX; bits.len().div_ceil(8) + 1];
+            prop_assert_eq!(decode_row_words(&packed, bits.len(), &mut words), Ok(used));
+            let mut bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+            bytes.truncate(bits.len());
+            prop_assert_eq!(&bytes, &bits);
+            prop_assert_eq!(words.last().copied(), Some(u64::MAX));
             let zero_runs_ok = packed[..used].windows(2).all(|w| w[0] != 0 || w[1] != 0);
             prop_assert!(zero_runs_ok);
         }
@@ -177,9 +222,12 @@ mod tests {
         #[test]
         fn never_panics(data in prop::collection::vec(any::<u8>(), 0..64), row in 0usize..100) {
             let mut out = vec![0; row];
-            if let Ok(used) = decode_row(&data, row, &mut out) {
+            let bytes = decode_row(&data, row, &mut out);
+            if let Ok(used) = bytes {
                 prop_assert!(used <= data.len());
             }
+            let mut words = vec![0; row.div_ceil(8)];
+            prop_assert_eq!(decode_row_words(&data, row, &mut words), bytes);
         }
     }
 }

@@ -20,6 +20,15 @@ impl SplitMix64 {
         g
     }
 
+    /// An independent stream for item `(a, b)` of a computation seeded with `seed` (the
+    /// validator's `(leaf, bundle)`): the seed and each key in turn go through a full SplitMix64
+    /// step, so neighbouring keys give unrelated streams whatever thread draws them.
+    pub fn keyed(seed: u64, a: u64, b: u64) -> Self {
+        let mut g = Self::new(seed ^ 0x9E37_79B9_7F4A_7C15);
+        let mut g = Self::new(g.next_u64() ^ a.wrapping_mul(0xD1B5_4A32_D192_ED03));
+        Self::new(g.next_u64() ^ b.wrapping_mul(0x8CB9_2BA7_2F3D_8DD7))
+    }
+
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -75,5 +84,8 @@ mod tests {
         assert_eq!(g.below(0), 0);
         let (mut a, mut b) = (SplitMix64::stream(5, 1), SplitMix64::stream(5, 2));
         assert_ne!(a.next_u64(), b.next_u64());
+        assert_eq!(SplitMix64::keyed(1, 2, 3).next_u64(), SplitMix64::keyed(1, 2, 3).next_u64());
+        assert_ne!(SplitMix64::keyed(1, 2, 3).next_u64(), SplitMix64::keyed(1, 2, 4).next_u64());
+        assert_ne!(SplitMix64::keyed(1, 2, 3).next_u64(), SplitMix64::keyed(1, 3, 3).next_u64());
     }
 }

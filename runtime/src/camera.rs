@@ -71,9 +71,9 @@ pub enum ClipDepth {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frustum {
     /// Inward unit normals.
-    pub(crate) normals: [Vec3A; 6],
+    normals: [Vec3A; 6],
     /// Plane distances (`normal · p = dist` on the plane).
-    pub(crate) dists: [f32; 6],
+    dists: [f32; 6],
     /// The planes transposed for the box test, four per group (lanes 6 and 7 are padding that
     /// every box is inside, and no mask selects them).
     lanes: [PlaneLanes; 2],

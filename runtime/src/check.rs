@@ -22,13 +22,13 @@ impl LeafRegions {
     /// Collect the regions (depth-first from the world root).
     pub fn new(world: &World) -> Self {
         let mut regions = Vec::new();
-        let mut stack = vec![(world.root, Vec::new())];
+        let mut stack = vec![(world.tree().root, Vec::new())];
         while let Some((child, path)) = stack.pop() {
             if child < 0 {
                 regions.push(((!child) as LeafId, path));
                 continue;
             }
-            let Some(node) = world.nodes.get(child as usize) else { continue };
+            let Some(node) = world.tree().nodes.get(child as usize) else { continue };
             for (k, &c) in node.children.iter().enumerate() {
                 let mut p: Vec<HalfSpace> = path.clone();
                 p.push((node.normal, node.dist, k == 0));
@@ -113,8 +113,17 @@ pub fn reference_walk(world: &World, view: &View, marked: &dyn Fn(LeafId) -> boo
     let mut out = Visible::default();
     let mut seen = std::collections::HashSet::new();
     let mut any_below = std::collections::HashMap::new();
-    if subtree_marked(world, world.root, marked, &mut any_below) {
-        reference_visit(world, view, world.root, Frustum::ALL, &any_below, marked, &mut seen, &mut out);
+    if subtree_marked(world, world.tree().root, marked, &mut any_below) {
+        reference_visit(
+            world,
+            view,
+            world.tree().root,
+            Frustum::ALL,
+            &any_below,
+            marked,
+            &mut seen,
+            &mut out,
+        );
     }
     out
 }
@@ -130,7 +139,7 @@ fn subtree_marked(
         let l = (!child) as LeafId;
         return world.leaf_contents(l).is_some_and(|c| c.is_open()) && marked(l);
     }
-    let Some(node) = world.nodes.get(child as usize) else { return false };
+    let Some(node) = world.tree().nodes.get(child as usize) else { return false };
     let children = node.children;
     let any = children.iter().fold(false, |acc, &c| subtree_marked(world, c, marked, memo) | acc);
     memo.insert(child, any);
@@ -149,7 +158,7 @@ fn reference_visit(
     out: &mut Visible,
 ) {
     if child >= 0 {
-        let Some(node) = world.nodes.get(child as usize) else { return };
+        let Some(node) = world.tree().nodes.get(child as usize) else { return };
         let Some(mask) = scalar_box_test(&view.frustum, node.center, node.extent, mask) else { return };
         let back_first = node.normal.dot(view.eye) - node.dist < 0.0;
         let [front, back] = node.children;

@@ -1,22 +1,34 @@
-//! Why a level could not be loaded.
+//! Why a level could not be loaded, or its GVS cells not used.
+//!
+//! This is the bottom layer of the crate: it imports nothing from it, so every other module may
+//! return these errors.
 
-use sightline_formats::rle::RleError;
+use sightline_formats::slvl::SlvlError;
 use thiserror::Error;
 
 /// A level failed validation (or its file failed to parse). After a successful load no query can
-/// fail or panic, so this is the runtime's only error type.
+/// fail or panic, so this is the runtime's only error type for worlds.
+///
+/// A level is checked in two steps (see [`crate::world`]): first the rules every reader of a level
+/// relies on, owned by [`sightline_formats::slvl::validate`] and reported as
+/// [`LoadError::Invalid`]; then the runtime's own rules (the other variants).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum LoadError {
+    /// The level breaks a rule of [`sightline_formats::slvl::validate`] (an index out of range, a
+    /// non-finite value, a cycle, a PVS row that does not decode, ...).
+    #[error("invalid level: {0}")]
+    Invalid(#[source] SlvlError),
     /// The level has no model 0 (the world).
     #[error("level has no world model")]
     NoWorldModel,
-    /// A plane's normal is not unit length or a value is not finite.
+    /// A plane's normal is not unit length.
     #[error("plane {index} is not a finite unit-normal plane")]
     BadPlane {
         /// Plane index.
         index: usize,
     },
-    /// An index points outside its table.
+    /// A count or index the runtime cannot represent.
     #[error("{owner} {index}: {what} index {value} out of range")]
     Index {
         /// Which table the index points into.
@@ -28,7 +40,7 @@ pub enum LoadError {
         /// The offending value (or end of range).
         value: u64,
     },
-    /// A non-solid leaf has non-finite or inverted bounds.
+    /// A non-solid leaf has inverted bounds.
     #[error("{owner} {index} has non-finite or inverted bounds")]
     BadBounds {
         /// What has the bounds.
@@ -36,7 +48,7 @@ pub enum LoadError {
         /// Its index.
         index: usize,
     },
-    /// A node is reached twice from the world root (a cycle or a shared subtree).
+    /// A node is reached twice from the world root (a shared subtree).
     #[error("node {index} is reached twice from the world root: not a tree")]
     NotATree {
         /// Node index.
@@ -54,43 +66,12 @@ pub enum LoadError {
         /// The limit.
         max: usize,
     },
-    /// A portal has fewer than 3 corners or a non-finite one.
-    #[error("portal {index} has fewer than 3 corners or a non-finite corner")]
-    BadPortal {
-        /// Portal index.
-        index: usize,
-    },
-    /// More clusters than leaves.
-    #[error("{clusters} clusters for {leaves} leaves")]
-    TooManyClusters {
-        /// Cluster count.
-        clusters: u32,
-        /// Leaf count.
-        leaves: usize,
-    },
-    /// PVS offsets do not match the cluster count.
-    #[error("{rows} PVS rows for {clusters} clusters")]
-    PvsRows {
-        /// Rows present.
-        rows: usize,
-        /// Clusters.
-        clusters: u32,
-    },
-    /// A PVS row does not decode.
-    #[error("PVS row of cluster {cluster}: {source}")]
-    PvsRow {
-        /// Cluster.
-        cluster: usize,
-        /// Decoder error.
-        #[source]
-        source: RleError,
-    },
     /// The level's GVS cells do not fit its faces.
     #[error("GVS data: {0}")]
-    Gvs(#[from] crate::backend::gvs::GvsError),
+    Gvs(#[from] GvsError),
     /// The `.slvl` file could not be read.
     #[error(transparent)]
-    Slvl(#[from] sightline_formats::slvl::SlvlError),
+    Slvl(#[from] SlvlError),
     /// The `.bsp` file could not be read.
     #[error(transparent)]
     Bsp(#[from] sightline_formats::bsp::BspError),
@@ -101,12 +82,38 @@ pub enum LoadError {
     #[error("portal file: {0}")]
     Prt(String),
     /// Reading the file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The path.
         path: String,
         /// The IO error.
         #[source]
         source: std::io::Error,
+    },
+}
+
+/// Why a level's GVS lumps cannot be used ([`crate::gvs_cells::GvsCells::from_level`]).
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
+pub enum GvsError {
+    /// A cell's face range lies outside `gvs_faces`.
+    #[error("gvs cell {cell}: faces {first}..+{count} outside the {len} gvs_faces")]
+    CellRange {
+        /// Cell index.
+        cell: usize,
+        /// First face entry.
+        first: u32,
+        /// Entry count.
+        count: u32,
+        /// Length of `gvs_faces`.
+        len: usize,
+    },
+    /// A face index or its corners are out of range, or a bound is not finite.
+    #[error("gvs face entry {entry}: {detail}")]
+    Face {
+        /// Entry in `gvs_faces`.
+        entry: usize,
+        /// What is wrong.
+        detail: String,
     },
 }

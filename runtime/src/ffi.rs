@@ -95,6 +95,18 @@ thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
 }
 
+/// `err` and its sources joined by ": " (how the CLI prints errors too).
+fn error_chain(err: &dyn std::error::Error) -> String {
+    let mut text = err.to_string();
+    let mut source = err.source();
+    while let Some(e) = source {
+        text.push_str(": ");
+        text.push_str(&e.to_string());
+        source = e.source();
+    }
+    text
+}
+
 fn set_error(message: String) {
     let c = CString::new(message.replace('\0', " ")).unwrap_or_default();
     LAST_ERROR.with(|e| *e.borrow_mut() = c);
@@ -120,7 +132,7 @@ fn store_world(result: Result<World, crate::LoadError>, out: *mut *mut SlWorld) 
         }
         Err(err) => {
             let code = if matches!(err, crate::LoadError::Io { .. }) { SL_ERR_IO } else { SL_ERR_INVALID };
-            set_error(err.to_string());
+            set_error(error_chain(&err));
             code
         }
     }

@@ -18,10 +18,11 @@
 //!   the last range). An entry carries [`SHARED_FACE`] when its face is listed more than once
 //!   among the open leaves (split faces), so only those pay for de-duplication.
 //!
-//! Everything is built from a validated [`World`](crate::World); every index stored is in range
-//! by construction, and the walk still reads with `get`, so no query can panic.
+//! Everything is built from the validated [`Tree`] (this module sits below [`crate::world`], which
+//! owns the result); every index stored is in range by construction, and the walk still reads
+//! with `get`, so no query can panic.
 
-use crate::world::{WLeaf, WNode};
+use crate::tree::{Tree, WLeaf};
 
 /// Flag on an entry of [`WalkTree::faces`]: the face appears in more than one entry.
 pub(crate) const SHARED_FACE: u32 = 1 << 31;
@@ -95,9 +96,11 @@ impl MarkSet<'_> {
 }
 
 impl WalkTree {
-    /// Lay out the tree below `root` (a child code of the level). `nodes` and `leaves` are the
-    /// validated world tables: `root` and every child index are in range and form a tree.
-    pub fn build(root: i32, nodes: &[WNode], leaves: &[WLeaf], leaf_faces: &[u32], num_faces: usize) -> Self {
+    /// Lay out the world tree of `tree` (its root and every child index are in range and form a
+    /// tree).
+    pub fn build(tree: &Tree) -> Self {
+        let (root, nodes, leaves) = (tree.root, &tree.nodes, &tree.leaves);
+        let (leaf_faces, num_faces) = (&tree.leaf_faces, tree.num_faces);
         let mut t = WalkTree { leaf_bit: vec![NO_ELEMENT; leaves.len()], ..WalkTree::default() };
         let mut uses = vec![0u8; num_faces];
         // (child code in the level, parent node slot in `t.nodes` and which child, parent element)

@@ -16,27 +16,40 @@
 
 #![deny(unsafe_code)]
 
+// Layers, bottom up (a module imports only from layers below it):
+// 1. `error`, `camera`: no crate imports.
+// 2. `tree` (the level's validated tables), `gvs_cells` (the level's GVS cells).
+// 3. `locate`, `layout` (built from `tree`); then `pvs` (rows, per-cluster trees over `layout`).
+// 4. `world`: owns all of the above; knows no query module and no backend.
+// 5. `scratch`, `trace`, `load`; then `walk`; then `backend::*`; then `check`, `poses`, `synth`
+//    (feature `testkit`) and `ffi` (feature `ffi`).
+
 pub mod backend;
-pub mod bvh;
 pub mod camera;
+#[cfg(any(test, feature = "testkit"))]
 pub mod check;
 pub mod error;
 #[cfg(feature = "ffi")]
 #[allow(unsafe_code)]
 pub mod ffi;
+pub mod gvs_cells;
 pub(crate) mod layout;
 pub mod load;
-pub mod locate;
+pub(crate) mod locate;
+#[cfg(any(test, feature = "testkit"))]
 pub mod poses;
 pub mod pvs;
 pub mod scratch;
+#[cfg(any(test, feature = "testkit"))]
 pub mod synth;
 pub mod trace;
+pub(crate) mod tree;
 pub mod walk;
 pub mod world;
 
 pub use camera::{Camera, ClipDepth, Frustum, View};
-pub use error::LoadError;
+pub use error::{GvsError, LoadError};
+pub use gvs_cells::GvsCells;
 pub use pvs::Bitset;
 pub use scratch::{FrameStats, Scratch, Visible};
 pub use trace::TraceHit;

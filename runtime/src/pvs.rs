@@ -1,12 +1,16 @@
-//! PVS rows: a small bitset, decoding of a cluster's Quake-RLE row into it, and the PVS of every
-//! cluster turned once at load into a pruned tree for the walk ([`ClusterTrees`]).
+//! PVS rows: a small bitset ([`Bitset`]), the level's compressed rows (`PvsRows`, decoded with
+//! [`sightline_formats::rle`] straight into a bitset), and the PVS of every cluster turned once at
+//! load into a pruned tree for the walk (`ClusterTrees`).
+//!
+//! This module sits below [`crate::world`], which owns the rows and the trees.
 
-use sightline_formats::bits;
+use sightline_formats::level::Level;
+use sightline_formats::{bits, rle};
 
 use crate::layout::{MarkSet, WalkTree};
-use crate::world::World;
+use crate::tree::Csr;
 
-/// Most memory spent on the per-cluster PVS trees ([`ClusterTrees`]): 64 MiB. E1M1 needs about
+/// Most memory spent on the per-cluster PVS trees (`ClusterTrees`): 64 MiB. E1M1 needs about
 /// 4.4 MiB (1,354 clusters × 164 branch nodes × 20 bytes); a level over the budget decodes its
 /// row and marks the tree when the eye changes cluster.
 pub const CLUSTER_TREE_BUDGET: usize = 64 << 20;
@@ -37,13 +41,14 @@ pub(crate) struct ClusterTrees {
 }
 
 impl ClusterTrees {
-    /// Build the trees of `world`, or `None` without vis or over [`CLUSTER_TREE_BUDGET`].
-    pub fn build(world: &World) -> Option<Self> {
-        if !world.has_vis() {
+    /// Build the trees of every cluster of `rows` over the walk layout `tree`, where
+    /// `cluster_elems` lists the walk-tree elements of each cluster's leaves; `None` without vis
+    /// or over [`CLUSTER_TREE_BUDGET`].
+    pub fn build(tree: &WalkTree, rows: &PvsRows, cluster_elems: &Csr) -> Option<Self> {
+        if !rows.has_vis() {
             return None;
         }
-        let tree = &world.tree;
-        let clusters = world.num_clusters as usize;
+        let clusters = rows.num_clusters as usize;
         let mut row = Bitset::new(clusters);
         let mut marks = vec![0u32; tree.mark_slots()];
         let mut out =
@@ -52,10 +57,10 @@ impl ClusterTrees {
         for c in 0..clusters {
             // A generation per cluster: no clearing between clusters.
             let gen_ = c as u32 + 1;
-            world.decode_pvs(c as u32, &mut row);
+            rows.decode(c as u32, &mut row);
             let mut leaves = 0;
             for visible in row.iter_ones() {
-                for &e in world.cluster_elements(visible as u32) {
+                for &e in cluster_elems.get(visible) {
                     tree.mark_element(&mut marks, gen_, e);
                     leaves += 1;
                 }
@@ -195,42 +200,94 @@ impl Bitset {
         &self.words
     }
 
+    /// Clear the bits past `len` in the last word.
     fn trim(&mut self) {
-        let extra = self.words.len() * 64 - self.len;
-        if extra > 0
-            && let Some(last) = self.words.last_mut()
-        {
-            *last &= u64::MAX >> extra;
+        let len = self.len;
+        if let Some((w, last)) = self.words.iter_mut().enumerate().next_back() {
+            *last &= bits::valid_mask(w, len);
         }
     }
 }
 
-impl World {
-    /// Decode the PVS row of `cluster` into `out` (resized to [`World::num_clusters`] bits; bit `j`
-    /// set means cluster `j` is potentially visible). Without vis data, or for a cluster out of
-    /// range (the eye in solid), every bit is set, as Quake does.
-    pub fn decode_pvs(&self, cluster: u32, out: &mut Bitset) {
+/// The level's PVS: one Quake-RLE row per cluster (see [`sightline_formats::level`]). Made from a
+/// level that passed [`sightline_formats::slvl::validate`], so every row decodes.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct PvsRows {
+    num_clusters: u32,
+    row_bytes: usize,
+    /// Empty without vis.
+    offsets: Vec<u32>,
+    data: Vec<u8>,
+}
+
+impl PvsRows {
+    /// The rows of `level` (validated: one decodable row per cluster, or none).
+    pub fn new(level: &Level) -> Self {
+        let vis = level.has_vis();
+        Self {
+            num_clusters: level.num_clusters,
+            row_bytes: level.row_bytes(),
+            offsets: if vis { level.pvs_offsets.clone() } else { Vec::new() },
+            data: if vis { level.pvs_data.clone() } else { Vec::new() },
+        }
+    }
+
+    /// True when the level carries a PVS.
+    pub fn has_vis(&self) -> bool {
+        !self.offsets.is_empty()
+    }
+
+    /// Decode the row of `cluster` into `out` (resized to the cluster count; bit `j` set means
+    /// cluster `j` is potentially visible). Without vis, for a cluster out of range (the eye in
+    /// solid), or for a row that does not decode (never, after validation), every bit is set.
+    pub fn decode(&self, cluster: u32, out: &mut Bitset) {
         out.reset(self.num_clusters as usize);
-        let Some(&offset) = self.pvs_offsets.get(cluster as usize) else {
+        let Some(&offset) = self.offsets.get(cluster as usize) else {
             out.fill();
             return;
         };
-        let data = self.pvs_data.get(offset as usize..).unwrap_or(&[]);
-        let mut pos = 0;
-        let mut byte = 0;
-        while byte < self.row_bytes {
-            let Some(&b) = data.get(pos) else { break };
-            if b != 0 {
-                if let Some(w) = out.words.get_mut(byte >> 3) {
-                    *w |= u64::from(b) << ((byte & 7) * 8);
-                }
-                byte += 1;
-                pos += 1;
-            } else {
-                byte += usize::from(data.get(pos + 1).copied().unwrap_or(u8::MAX));
-                pos += 2;
-            }
+        let data = self.data.get(offset as usize..).unwrap_or(&[]);
+        match rle::decode_row_words(data, self.row_bytes, &mut out.words) {
+            Ok(_) => out.trim(),
+            Err(_) => out.fill(),
         }
-        out.trim();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sightline_formats::rng::SplitMix64;
+
+    #[test]
+    fn decoded_rows_hold_the_bits_of_the_byte_rows() {
+        let mut rng = SplitMix64::new(17);
+        for clusters in [1u32, 7, 8, 63, 64, 65, 130, 700] {
+            let mut level = Level { num_clusters: clusters, ..Level::default() };
+            let mut rows = Vec::new();
+            for _ in 0..clusters {
+                let mut row = vec![0u8; level.row_bytes()];
+                for b in &mut row {
+                    *b = if rng.below(3) == 0 { rng.below(256) as u8 } else { 0 };
+                }
+                level.pvs_offsets.push(level.pvs_data.len() as u32);
+                rle::encode_row(&row, &mut level.pvs_data);
+                rows.push(row);
+            }
+            let pvs = PvsRows::new(&level);
+            let mut set = Bitset::new(3);
+            for (c, row) in rows.iter().enumerate() {
+                pvs.decode(c as u32, &mut set);
+                assert_eq!(set.len(), clusters as usize);
+                for j in 0..clusters as usize + 9 {
+                    let want = j < clusters as usize && bits::bytes::get(row, j);
+                    assert_eq!(set.get(j), want, "{clusters} clusters, row {c}, bit {j}");
+                }
+                assert!(set.iter_ones().all(|j| j < clusters as usize));
+            }
+            // Out of range (the eye in solid): everything.
+            pvs.decode(clusters, &mut set);
+            assert_eq!(set.count_ones(), clusters as usize);
+        }
     }
 }

@@ -107,14 +107,14 @@ impl Scratch {
 
     /// Size the buffers for `world` if they were made for another one; drops cached marks.
     pub(crate) fn bind(&mut self, world: &World) {
-        if self.world_id == world.id {
+        if self.world_id == world.id() {
             return;
         }
-        self.world_id = world.id;
+        self.world_id = world.id();
         self.marks_key = None;
         self.pvs_key = None;
         self.marks.clear();
-        self.marks.resize(world.tree.mark_slots(), 0);
+        self.marks.resize(world.walk_tree().mark_slots(), 0);
         self.mark_gen = 0;
         self.walk.frame_gen = 0;
         self.walk.face_mark.clear();
@@ -143,6 +143,6 @@ impl Scratch {
     /// first ancestor already marked). Returns false when it was already marked (or solid).
     #[inline]
     pub(crate) fn mark_leaf(&mut self, world: &World, leaf: u32) -> bool {
-        world.tree.mark_leaf(&mut self.marks, self.mark_gen, leaf)
+        world.walk_tree().mark_leaf(&mut self.marks, self.mark_gen, leaf)
     }
 }

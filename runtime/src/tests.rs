@@ -391,7 +391,7 @@ fn a_world_with_gvs_cells_offers_the_gvs_backend() {
     let plain = World::new(&level).expect("valid");
     let gvs = backend::by_name("gvs").expect("gvs is in backend::all()");
     assert!(!gvs.supports(&plain), "no cells, no GVS backend");
-    assert!(plain.gvs().is_none());
+    assert!(plain.gvs_cells().is_none());
     // Two cells: each sees every third face.
     let faces = level.faces.len() as u32;
     level.gvs_faces = (0..faces).step_by(3).chain((1..faces).step_by(3)).collect();
@@ -421,5 +421,27 @@ fn a_world_with_gvs_cells_offers_the_gvs_backend() {
     assert!(seen > 0, "the cells' faces are seen");
     // A damaged GVS lump fails the load.
     level.gvs_faces[0] = faces + 5;
-    assert!(matches!(World::new(&level), Err(crate::LoadError::Gvs(_))));
+    assert!(matches!(World::new(&level), Err(crate::LoadError::Invalid(_))));
+}
+
+#[test]
+fn world_new_runs_the_shared_level_rules_then_its_own() {
+    use crate::LoadError;
+    use sightline_formats::slvl;
+    // A rule every reader shares, stated once in `slvl::validate` (the runtime never reads
+    // textures, yet rejects what `.slvl` reading rejects).
+    let mut level = pillars(9);
+    level.faces[0].texture = 99;
+    assert!(slvl::validate(&level).is_err());
+    assert!(matches!(World::new(&level), Err(LoadError::Invalid(_))));
+    // The runtime's own rules: unit normals, a strict world tree of bounded depth.
+    let mut level = pillars(9);
+    level.planes[0].normal = [2.0, 0.0, 0.0];
+    assert_eq!(slvl::validate(&level), Ok(()));
+    assert!(matches!(World::new(&level), Err(LoadError::BadPlane { index: 0 })));
+    let mut level = pillars(9);
+    let shared = level.nodes[0].children[0];
+    level.nodes[0].children[1] = shared;
+    assert_eq!(slvl::validate(&level), Ok(()), "a shared subtree is acyclic");
+    assert!(matches!(World::new(&level), Err(LoadError::NotATree { .. } | LoadError::SharedLeaf { .. })));
 }

@@ -42,7 +42,7 @@ impl World {
         let from = from.into();
         let to = to.into();
         let seg = Seg { from, dir: to - from };
-        let (t, normal, leaf) = self.trace_rec(self.root, 0.0, 1.0, Vec3A::ZERO, &seg)?;
+        let (t, normal, leaf) = self.trace_rec(self.tree().root, 0.0, 1.0, Vec3A::ZERO, &seg)?;
         let start_solid = t <= 0.0 && normal == Vec3A::ZERO;
         let len = seg.dir.length();
         let back = if len > 0.0 { TRACE_EPSILON / len } else { 0.0 };
@@ -62,10 +62,10 @@ impl World {
     ) -> Option<(f32, Vec3A, LeafId)> {
         if child < 0 {
             let leaf = (!child) as LeafId;
-            let solid = self.leaves.get(leaf as usize).is_some_and(|l| !l.contents.is_open());
+            let solid = self.tree().leaves.get(leaf as usize).is_some_and(|l| !l.contents.is_open());
             return solid.then_some((t0, entry, leaf));
         }
-        let node = self.nodes.get(child as usize)?;
+        let node = self.tree().nodes.get(child as usize)?;
         let d0 = node.normal.dot(seg.from + seg.dir * t0) - node.dist;
         let d1 = node.normal.dot(seg.from + seg.dir * t1) - node.dist;
         let [front, back] = node.children;

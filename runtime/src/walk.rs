@@ -1,6 +1,6 @@
 //! The front-to-back walk over marked leaves with hierarchical frustum culling.
 //!
-//! Backends first choose a mark set ([`crate::layout`]): a mark per leaf they consider visible and
+//! Backends first choose a mark set (`layout`): a mark per leaf they consider visible and
 //! per node with such a leaf below (Quake's `R_MarkLeaves`, but for the PVS precomputed at load
 //! for every cluster). The walk then descends only into marked children, near child first (the
 //! side of the node plane the eye is on; an eye exactly on the plane counts as front), skips every
@@ -49,13 +49,13 @@ impl Marks {
 pub fn walk(world: &World, view: &View, marks: Marks, scratch: &mut Scratch, out: &mut Visible) {
     scratch.bind(world);
     let set = match marks.0 {
-        Source::All => MarkSet { marks: &world.all_marks, gen_: 1 },
-        Source::Cluster(c) => match world.cluster_trees.as_ref() {
+        Source::All => MarkSet { marks: world.all_marks(), gen_: 1 },
+        Source::Cluster(c) => match world.cluster_trees() {
             Some(trees) => {
                 walk_branches(world, view, trees, c, &mut scratch.walk, &mut scratch.stats, out);
                 return;
             }
-            None => MarkSet { marks: &world.all_marks, gen_: 1 },
+            None => MarkSet { marks: world.all_marks(), gen_: 1 },
         },
         Source::Scratch => MarkSet { marks: &scratch.marks, gen_: scratch.mark_gen },
     };
@@ -102,7 +102,7 @@ fn walk_branches(
     let nodes = trees.cluster_nodes(cluster);
     out.clear();
     let frame = st.next_frame_gen();
-    let tree = &world.tree;
+    let tree = world.walk_tree();
     let fr: &Frustum = &view.frustum;
     let eye = view.eye.to_array();
     let (mut visited, mut tests) = (0u32, 0u32);
@@ -182,7 +182,7 @@ fn walk_row(
 ) {
     out.clear();
     let frame = st.next_frame_gen();
-    let tree = &world.tree;
+    let tree = world.walk_tree();
     let fr: &Frustum = &view.frustum;
     let eye = view.eye.to_array();
     let mut visited = 0u32;

@@ -5,7 +5,7 @@
 //! A counting global allocator tracks, per thread, the bytes currently allocated and the peak
 //! since the last reset, so tests running on other threads do not disturb a measurement.
 
-use sightline_formats::{bsp, map, obj, prt, rle, slvl};
+use sightline_formats::{FileKind, bsp, map, obj, prt, rle, slvl, visfile};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -241,7 +241,14 @@ fn slvl_reader_survives_hostile_files() {
         4,
         |r, d| mutate(r, d, header),
         slvl_bound,
-        |data| slvl::read(data).is_ok(),
+        |data| match slvl::read(data) {
+            Ok(level) => {
+                // A level that reads must answer PVS queries without panicking.
+                let _ = level.pvs_stats();
+                true
+            }
+            Err(_) => false,
+        },
     );
     assert!(rejected > 2000, "only {rejected} of 3000 mutated .slvl files rejected");
 }
@@ -283,6 +290,59 @@ fn slvl_validation_survives_mutated_records() {
         |data| slvl::read(data).is_ok(),
     );
     assert!(rejected > 500, "only {rejected} of 1500 mutated records rejected");
+}
+
+#[test]
+fn vis_file_reader_survives_hostile_files() {
+    let mut rng = Rng::new(12);
+    let mut inputs = Vec::new();
+    for _ in 0..10 {
+        let leaves = 1 + rng.below(300);
+        let row_bytes = leaves.div_ceil(8);
+        let (mut data, mut offsets) = (Vec::new(), Vec::new());
+        for _ in 0..leaves {
+            offsets.push(data.len() as u32);
+            let row: Vec<u8> =
+                (0..row_bytes).map(|_| if rng.below(3) == 0 { rng.next_u64() as u8 } else { 0 }).collect();
+            rle::encode_row(&row, &mut data);
+        }
+        inputs.push(visfile::write(row_bytes, &offsets, &data).expect("small file"));
+    }
+    let rejected = hammer(
+        "vis file",
+        &inputs,
+        300,
+        13,
+        |r, d| mutate(r, d, visfile::HEADER_BYTES),
+        linear_bound,
+        |data| match visfile::read(data) {
+            Ok(f) => {
+                // Every row of a file that reads decodes or fails cleanly.
+                for &o in &f.leaf_offsets {
+                    let _ = rle::decode_row_vec(&f.data[o as usize..], f.row_bytes as usize);
+                }
+                true
+            }
+            Err(_) => false,
+        },
+    );
+    assert!(rejected > 1500, "only {rejected} of 3000 mutated .vis files rejected");
+}
+
+#[test]
+fn file_kind_detection_survives_hostile_bytes() {
+    let mut inputs = bundled_with_ext("map");
+    inputs.extend(bundled_with_ext("obj"));
+    let mut rng = Rng::new(14);
+    let mut kinds = 0;
+    for input in &inputs {
+        for _ in 0..200 {
+            let data = mutate(&mut rng, input, 16);
+            let peak = peak_during(|| kinds += usize::from(FileKind::from_bytes(&data).is_some()));
+            assert!(peak <= linear_bound(data.len()), "detection took {peak} bytes");
+        }
+    }
+    assert!(kinds > 0, "no mutated map or mesh was recognised");
 }
 
 #[test]

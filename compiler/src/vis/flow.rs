@@ -329,11 +329,7 @@ impl Flow {
         let f = &mut self.frames[d];
         f.ensure_separators(self.level, g.convex);
         for w in lo..hi {
-            let mut unc = f.might[w] & !self.vis[w];
-            while unc != 0 {
-                let b = unc.trailing_zeros() as usize;
-                unc &= unc - 1;
-                let ti = w * 64 + b;
+            for ti in bits::word_ones(w, f.might[w] & !self.vis[w]) {
                 let [x, y, z, r] = g.spheres[ti];
                 let center = DVec3::new(x, y, z);
                 let beyond = |pl: &Plane| {
@@ -346,7 +342,7 @@ impl Flow {
                     || f.seps[0].iter().any(beyond)
                     || f.seps[1].iter().any(beyond);
                 if out {
-                    f.might[w] &= !(1u64 << b);
+                    f.might[w] &= !bits::mask(ti);
                 }
             }
         }
@@ -358,7 +354,7 @@ impl Frame {
     /// Portal `pi` is still in `might`.
     #[inline]
     fn may_see(&self, pi: usize) -> bool {
-        (self.lo..self.hi).contains(&(pi >> 6)) && bits::get(&self.might, pi)
+        (self.lo..self.hi).contains(&bits::word_of(pi)) && bits::get(&self.might, pi)
     }
 
     /// Compute the separators of (`source`, `pass`) unless cached.

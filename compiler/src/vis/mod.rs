@@ -1,8 +1,8 @@
 //! Vis: cluster-to-cluster visibility (the PVS) from a portal file, by portal flow with
 //! antipenumbra (separating plane) clipping.
 //!
-//! Phases: [`graph`] turns each portal line into two one-way portals; [`base`] computes each
-//! portal's `mightsee` (`--fast` stops there); [`flow`] clips windings through chains of portals,
+//! Phases: `graph` turns each portal line into two one-way portals; `base` computes each
+//! portal's `mightsee` (`--fast` stops there); `flow` clips windings through chains of portals,
 //! one source portal at a time; then each cluster's row is the union of what its portals see plus
 //! the clusters they lead to and itself.
 //!
@@ -16,10 +16,10 @@
 //!   most touches a clipping plane, within [`poly::TOUCH_EPSILON`], is gone.
 //! - **Symmetry prunes**: one-way portals `p` and `p ^ 1` are each other's reverse, and a line
 //!   from `r` through `s` runs backwards from `s ^ 1` through `r ^ 1`; so `s` is cleared from row
-//!   `r` whenever row `s ^ 1` lacks `r ^ 1` ([`symmetry`]), before the flow and after every batch.
+//!   `r` whenever row `s ^ 1` lacks `r ^ 1` (`symmetry`), before the flow and after every batch.
 //!   Rows stay supersets of the truth and later flows narrow by them.
 //! - **Known sight lines prune**: a flow that reaches a new cluster checks the line between the
-//!   middles of its clipped source and target against the chain's windings ([`certify`]); when
+//!   middles of its clipped source and target against the chain's windings (`certify`); when
 //!   it passes, the clusters on it see each other for sure, and later flows from those clusters
 //!   start with them marked seen (saved in checkpoints with the rows). On E1M2 this cuts the
 //!   chains by a quarter.
@@ -63,7 +63,7 @@ pub struct VisOptions {
     pub fast: bool,
     /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
     pub level: u8,
-    /// Seed flows with clusters known visible by certified sight lines ([`certify`]; on by
+    /// Seed flows with clusters known visible by certified sight lines (`certify`; on by
     /// default). Off, every flow finds everything itself: more work, and the PVS the seeds
     /// would leave except for the few pairs they keep through the beam cull's order dependence.
     pub seeds: bool,
@@ -210,7 +210,7 @@ impl VisResult {
         &self.leaf_clusters
     }
 
-    /// Row of cluster `c`: bit `k` (word `k / 64`, bit `k % 64`) set when cluster `k` is visible.
+    /// Row of cluster `c` (a word row, [`bits`]): bit `k` set when cluster `k` is visible.
     pub fn cluster_row(&self, c: usize) -> &[u64] {
         &self.rows[c * self.words..(c + 1) * self.words]
     }
@@ -228,16 +228,16 @@ impl VisResult {
         }
     }
 
-    /// Leaf `leaf`'s row in Quake's byte layout, uncompressed: byte `j >> 3`, bit `j & 7` set when
+    /// Leaf `leaf`'s row in Quake's byte layout ([`bits::bytes`]), uncompressed: bit `j` set when
     /// vis leaf `j` is visible (Quake: BSP leaf `j + 1`). `out` is cleared and sized
     /// `(num_leaves + 7) / 8`.
     pub fn leaf_row_bytes(&self, leaf: usize, out: &mut Vec<u8>) {
         out.clear();
-        out.resize(self.num_leaves.div_ceil(8), 0);
+        out.resize(bits::bytes::len(self.num_leaves), 0);
         let Some(&c) = self.leaf_clusters.get(leaf) else { return };
         for k in bits::ones(self.cluster_row(c as usize)) {
             for &j in &self.cluster_leaves[k] {
-                out[j as usize >> 3] |= 1 << (j & 7);
+                bits::bytes::set(out, j as usize);
             }
         }
     }

@@ -1,8 +1,8 @@
 //! `--state` checkpoints: the finished flow rows of a run, so an interrupted run resumes without
 //! redoing them.
 //!
-//! The file is bincode 2 (serde, fixed-width integers) of [`State`], written to a temporary
-//! sibling and renamed into place. It records a hash of the portal file (as
+//! The file is bincode 2 (serde, fixed-width integers) of [`State`], written with
+//! [`sightline_formats::atomic::write_file_atomic`] (a crash leaves the previous checkpoint). It records a hash of the portal file (as
 //! [`sightline_formats::prt::write`] prints it) and of the options that change results; a state
 //! from another input or other options is refused. Decoding is always bounded by a limit sized
 //! from the file length, so a corrupt length field cannot allocate more than the file justifies.
@@ -10,6 +10,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use sightline_formats::atomic::write_file_atomic;
 
 use super::VisError;
 
@@ -77,15 +78,11 @@ fn config() -> bincode::config::Configuration<bincode::config::LittleEndian, bin
     bincode::config::standard().with_fixed_int_encoding()
 }
 
-/// Write `state` atomically (temporary sibling, then rename).
+/// Write `state` atomically ([`write_file_atomic`]).
 pub fn save(path: &Path, state: &State) -> Result<(), VisError> {
     let bytes = bincode::serde::encode_to_vec(state, config())
         .map_err(|e| VisError::State(format!("{}: cannot encode: {e}", path.display())))?;
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, &bytes).map_err(|e| VisError::State(format!("{}: {e}", tmp.display())))?;
-    std::fs::rename(&tmp, path).map_err(|e| VisError::State(format!("{}: {e}", path.display())))
+    write_file_atomic(path, &bytes).map_err(|e| VisError::State(format!("{}: {e}", path.display())))
 }
 
 fn decode_with<const N: usize>(bytes: &[u8]) -> Result<State, bincode::error::DecodeError> {

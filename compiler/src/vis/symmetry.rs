@@ -30,10 +30,7 @@ pub fn tighten_all(test: &mut [u64], words: usize, n: usize) {
 /// Clear from row `r` every `s` whose reverse row lacks `r ^ 1`.
 fn tighten_row(test: &mut [u64], words: usize, n: usize, r: usize) {
     for w in 0..words {
-        let mut bitsw = test[r * words + w];
-        while bitsw != 0 {
-            let s = w * 64 + bitsw.trailing_zeros() as usize;
-            bitsw &= bitsw - 1;
+        for s in bits::word_ones(w, test[r * words + w]) {
             if s < n && !has(test, words, s ^ 1, r ^ 1) {
                 clear(test, words, r, s);
             }
@@ -50,10 +47,7 @@ pub fn replace_row(test: &mut [u64], words: usize, f: usize, row: &[u64]) {
         let current = test[f * words + w];
         let new = current & row[w];
         test[f * words + w] = new;
-        let mut gone = current & !new;
-        while gone != 0 {
-            let b = w * 64 + gone.trailing_zeros() as usize;
-            gone &= gone - 1;
+        for b in bits::word_ones(w, current & !new) {
             clear(test, words, b ^ 1, f ^ 1);
         }
     }
@@ -75,7 +69,7 @@ mod tests {
         ) {
             let n = 2 * n_half;
             let words = bits::words(n);
-            let mask = |w: usize| if (w + 1) * 64 <= n { u64::MAX } else { (1u64 << (n % 64)) - 1 };
+            let mask = |w: usize| bits::valid_mask(w, n);
             let original: Vec<u64> = (0..n * words).map(|i| fill[i % fill.len()] & mask(i % words)).collect();
             let mut all = original.clone();
             tighten_all(&mut all, words, n);

@@ -1,6 +1,7 @@
 //! Turning a Quake BSP into Sightline's [`Level`].
 
 use super::Bsp;
+use crate::bits;
 use crate::level::{Contents, Face, Leaf, Level, LevelPlane, Model, Node};
 use crate::rle;
 use std::collections::HashMap;
@@ -116,8 +117,8 @@ fn pvs(bsp: &Bsp, visleafs: usize) -> (Vec<u32>, Vec<u8>) {
             Ok(ofs) => ofs,
             Err(_) => *all_visible_at.get_or_insert_with(|| {
                 let at = data.len() as u32;
-                let mut row = vec![0u8; visleafs.div_ceil(8)];
-                super::fill_all_visible(&mut row, visleafs);
+                let mut row = vec![0u8; bits::bytes::len(visleafs)];
+                bits::bytes::fill_prefix(&mut row, visleafs);
                 rle::encode_row(&row, &mut data);
                 at
             }),

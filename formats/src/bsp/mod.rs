@@ -7,7 +7,7 @@
 //! a [`Bsp`] may index its vectors without checks, and [`to_level`] of it passes
 //! [`crate::slvl::validate`].
 //! [`write_with_visdata`] replaces the visibility lump of an existing file and keeps every other
-//! lump byte-identical; [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
+//! lump byte-identical ([`write_vis_rows`] from one row offset per vis leaf); [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
 //!
 //! # Conventions (Quake's)
 //! - Node children use Quake's encoding, widened to `i32`: `c >= 0` is node `c`, `c < 0` is leaf
@@ -26,8 +26,9 @@ mod parse;
 mod write;
 
 pub use convert::to_level;
-pub use write::write_with_visdata;
+pub use write::{write_vis_rows, write_with_visdata};
 
+use crate::bits;
 use crate::rle::{self, RleError};
 use thiserror::Error;
 
@@ -350,7 +351,7 @@ pub enum BspError {
         detail: String,
     },
     /// A PVS row does not decode.
-    #[error("byte {offset}: PVS row of leaf {leaf}: {source}")]
+    #[error("byte {offset}: PVS row of leaf {leaf}")]
     Row {
         /// Byte offset of the row in the file.
         offset: usize,
@@ -398,7 +399,7 @@ impl Bsp {
 
     /// Bytes in one uncompressed PVS row.
     pub fn row_bytes(&self) -> usize {
-        self.visleafs().div_ceil(8)
+        bits::bytes::len(self.visleafs())
     }
 
     /// The uncompressed PVS row of `leaf` (`1..=visleafs`): bit `j` set means leaf `j + 1` is
@@ -424,7 +425,7 @@ impl Bsp {
         };
         let visofs = usize::try_from(info.visofs).ok().filter(|_| !self.visdata.is_empty());
         let Some(visofs) = visofs else {
-            fill_all_visible(row, visleafs);
+            bits::bytes::fill_prefix(row, visleafs);
             return Ok(());
         };
         let vis_lump = self.lumps[lump::VISIBILITY].offset;
@@ -473,14 +474,6 @@ impl Bsp {
             .and_then(|ti| self.textures.get(ti.miptex as usize))
             .and_then(|t| t.as_ref())
             .map_or("", |t| t.name.as_str())
-    }
-}
-
-/// Sets the first `visleafs` bits of `row` and clears the rest.
-fn fill_all_visible(row: &mut [u8], visleafs: usize) {
-    for (i, byte) in row.iter_mut().enumerate() {
-        let bits = visleafs.saturating_sub(i * 8).min(8);
-        *byte = if bits == 8 { 0xff } else { (1u16 << bits).wrapping_sub(1) as u8 };
     }
 }
 
@@ -596,11 +589,18 @@ mod tests {
     }
 
     #[test]
-    fn all_visible_row_sets_only_vis_leaves() {
-        let mut row = [0u8; 3];
-        fill_all_visible(&mut row, 10);
-        assert_eq!(row, [0xff, 0x03, 0x00]);
-        fill_all_visible(&mut row, 24);
-        assert_eq!(row, [0xff; 3]);
+    fn vis_rows_go_to_the_leaf_after_their_vis_leaf() {
+        let original = tiny(&[1], -1);
+        let bsp = read(&original).unwrap();
+        let out = write_vis_rows(&original, &bsp, &[0, 1, 1], &[2], None).unwrap();
+        let written = read(&out).unwrap();
+        assert_eq!((written.leaves[0].visofs, written.leaves[1].visofs), (-1, 2));
+        assert_eq!(written.decode_leaf_pvs(1), Ok(vec![1]));
+        // The same bytes as spelling out every leaf's `visofs`.
+        assert_eq!(out, write_with_visdata(&original, &[0, 1, 1], &[-1, 2], None).unwrap());
+        assert!(matches!(
+            write_vis_rows(&original, &bsp, &[1], &[u32::MAX], None),
+            Err(BspError::Write(m)) if m.contains("2 GiB")
+        ));
     }
 }

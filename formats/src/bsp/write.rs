@@ -1,6 +1,6 @@
 //! Replacing the visibility lump of an existing BSP file.
 
-use super::{BspError, HEADER_BYTES, LumpEntry, lump, parse, read};
+use super::{Bsp, BspError, HEADER_BYTES, LumpEntry, lump, parse, read};
 
 fn align4(x: usize) -> usize {
     x.next_multiple_of(4)
@@ -8,6 +8,27 @@ fn align4(x: usize) -> usize {
 
 fn write_err(msg: impl Into<String>) -> BspError {
     BspError::Write(msg.into())
+}
+
+/// Returns `original` (which parses as `bsp`) with the visibility lump replaced by `visdata` and
+/// vis leaf `j`'s row at `row_offsets[j]`: in Quake's numbering vis leaf `j` is BSP leaf `j + 1`,
+/// whose `visofs` becomes that offset. Leaves without an entry in `row_offsets` (leaf 0, brush-model
+/// leaves) keep their `visofs`. `ambient`, when given, holds the ambient levels of every leaf. See
+/// [`write_with_visdata`] for what else changes (nothing).
+pub fn write_vis_rows(
+    original: &[u8],
+    bsp: &Bsp,
+    visdata: &[u8],
+    row_offsets: &[u32],
+    ambient: Option<&[[u8; 4]]>,
+) -> Result<Vec<u8>, BspError> {
+    let mut visofs: Vec<i32> = bsp.leaves.iter().map(|l| l.visofs).collect();
+    for (j, &o) in row_offsets.iter().enumerate() {
+        if let Some(slot) = visofs.get_mut(j + 1) {
+            *slot = i32::try_from(o).map_err(|_| write_err("visdata larger than 2 GiB"))?;
+        }
+    }
+    write_with_visdata(original, visdata, &visofs, ambient)
 }
 
 /// Returns `original` with lump 4 replaced by `visdata`, every leaf's `visofs` set from

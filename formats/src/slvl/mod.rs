@@ -23,7 +23,7 @@ use thiserror::Error;
 
 /// First four bytes of every `.slvl` file.
 pub const MAGIC: [u8; 4] = *b"SLVL";
-/// Format version written by [`write`]; [`read`] accepts exactly this version.
+/// Format version written by [`write()`]; [`read`] accepts exactly this version.
 pub const VERSION: u32 = 1;
 /// Bytes of the file header: magic, version, lump count, reserved.
 pub const HEADER_BYTES: usize = 16;
@@ -74,7 +74,7 @@ pub enum LumpKind {
 }
 
 impl LumpKind {
-    /// Every kind, in the order [`write`] stores them.
+    /// Every kind, in the order [`write()`] stores them.
     pub const ALL: [LumpKind; 15] = [
         Self::Entities,
         Self::Textures,
@@ -167,7 +167,7 @@ pub struct DirEntry {
     pub checksum: u32,
 }
 
-/// Options for [`write`].
+/// Options for [`write()`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WriteOptions {
     /// Store each lump lz4-compressed when that makes it smaller.

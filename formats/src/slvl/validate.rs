@@ -1,5 +1,11 @@
 //! Index validation of a whole level: after [`validate`] succeeds, every index stored in the level
 //! is in range, the node graph has no cycle, and every PVS row decodes.
+//!
+//! These are the rules every reader of a [`Level`] shares, and this is the only place that states
+//! them: [`super::read`] runs [`validate`] on every file, `bsp::to_level` produces levels that
+//! pass it, and the runtime's `World::new` runs it on every level before adding only its own
+//! rules (unit normals, a strict world tree of bounded depth, ...). A rule every consumer needs
+//! belongs here, not in a consumer.
 
 use super::{LumpKind, SlvlError};
 use crate::level::{Contents, Level};

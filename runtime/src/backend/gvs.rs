@@ -1,295 +1,56 @@
-//! The GVS backend: the faces guided visibility sampling found visible from the eye's view cell
-//! (`Level::gvs_cells` / `gvs_faces`, written by `sightline gvs`), frustum-culled per face box and
-//! sorted front to back by the distance from the eye to the face box.
+//! The GVS backends: the faces guided visibility sampling found visible from the eye's view cell
+//! ([`GvsCells`]), frustum-culled per face box and sorted front to back by the distance from the
+//! eye to the face box.
 //!
-//! [`World::new`] builds a [`Gvs`] from the level's cells ([`Gvs::from_level`], every index
-//! checked) and keeps it ([`World::gvs`]); the unit backend [`WorldGvs`] in [`super::all`] answers
-//! with it. A [`Gvs`] built by hand is a backend too.
+//! [`WorldGvs`], the value in [`super::all`], answers with the cells the world was loaded with
+//! ([`World::gvs_cells`]); [`Gvs`] answers with cells it owns (built from any level).
 //!
 //! # Conventions
-//! - The eye's cell is the first cell whose box contains it (boxes are closed); outside every cell,
-//!   the nearest cell by distance to its box (the first of equals). No cells: nothing visible.
+//! - The eye's cell, and what a cell lists, are as in [`crate::gvs_cells`].
 //! - `Visible::leaves` stays empty: GVS cells are not leaves. `Visible::faces` holds face indices of
 //!   the level, each once.
-//! - Like every GVS result, the face set is aggressive: it may miss faces seen only through tiny
-//!   gaps (see the `tools` GVS documentation for the measured error).
 
-use glam::Vec3A;
-use sightline_formats::level::Level;
-use thiserror::Error;
-
-use crate::backend::Backend;
-use crate::camera::{BoxSide, Frustum, View};
+use crate::backend::api::Backend;
+use crate::camera::View;
+use crate::error::GvsError;
+use crate::gvs_cells::GvsCells;
 use crate::scratch::{FrameStats, Scratch, Visible};
-use crate::world::{Bounds, World};
+use crate::world::World;
+use sightline_formats::level::Level;
 
-/// Why a level's GVS data cannot be used.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-pub enum GvsError {
-    /// A cell's face range lies outside `gvs_faces`.
-    #[error("gvs cell {cell}: faces {first}..+{count} outside the {len} gvs_faces")]
-    CellRange {
-        /// Cell index.
-        cell: usize,
-        /// First face entry.
-        first: u32,
-        /// Entry count.
-        count: u32,
-        /// Length of `gvs_faces`.
-        len: usize,
-    },
-    /// A face index or its corners are out of range, or a bound is not finite.
-    #[error("gvs face entry {entry}: {detail}")]
-    Face {
-        /// Entry in `gvs_faces`.
-        entry: usize,
-        /// What is wrong.
-        detail: String,
-    },
-}
-
-/// A view cell with its slice of [`Gvs::faces`].
-#[derive(Debug, Clone, Copy)]
-struct Cell {
-    mins: Vec3A,
-    maxs: Vec3A,
-    first: u32,
-    count: u32,
-}
-
-/// The GVS backend (see the module docs).
+/// A GVS backend owning its cells (see the module docs).
 #[derive(Debug, Clone, Default)]
 pub struct Gvs {
-    cells: Vec<Cell>,
-    faces: Vec<u32>,
-    /// Finds the cells whose box may contain a point.
-    grid: CellGrid,
-    /// Box of every face of the level (indexed by face).
-    face_bounds: Vec<Bounds>,
+    cells: GvsCells,
 }
 
 impl Gvs {
-    /// Build from a level's GVS lumps, checking every index.
+    /// A backend answering with `cells`.
+    pub fn new(cells: GvsCells) -> Self {
+        Self { cells }
+    }
+
+    /// Build from a level's GVS lumps, checking every index ([`GvsCells::from_level`]).
     pub fn from_level(level: &Level) -> Result<Gvs, GvsError> {
-        let mut face_bounds = Vec::with_capacity(level.faces.len());
-        for (i, f) in level.faces.iter().enumerate() {
-            let first = f.first_vertex as usize;
-            let vs = level.vertices.get(first..first.saturating_add(f.num_vertices as usize));
-            let Some(vs) = vs.filter(|v| !v.is_empty()) else {
-                return Err(GvsError::Face { entry: i, detail: format!("face {i} corners out of range") });
-            };
-            let mut lo = Vec3A::INFINITY;
-            let mut hi = Vec3A::NEG_INFINITY;
-            for v in vs {
-                let p = Vec3A::from_array(*v);
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            if !(lo.is_finite() && hi.is_finite()) {
-                return Err(GvsError::Face { entry: i, detail: format!("face {i} has non-finite corners") });
-            }
-            face_bounds.push(Bounds::from_min_max(lo, hi));
-        }
-        let mut cells = Vec::with_capacity(level.gvs_cells.len());
-        for (i, c) in level.gvs_cells.iter().enumerate() {
-            let end = c.first_face as usize + c.num_faces as usize;
-            if end > level.gvs_faces.len() {
-                return Err(GvsError::CellRange {
-                    cell: i,
-                    first: c.first_face,
-                    count: c.num_faces,
-                    len: level.gvs_faces.len(),
-                });
-            }
-            let (mins, maxs) = (Vec3A::from_array(c.mins), Vec3A::from_array(c.maxs));
-            if !(mins.is_finite() && maxs.is_finite()) {
-                return Err(GvsError::Face {
-                    entry: c.first_face as usize,
-                    detail: format!("cell {i} bounds"),
-                });
-            }
-            cells.push(Cell {
-                mins: mins.min(maxs),
-                maxs: mins.max(maxs),
-                first: c.first_face,
-                count: c.num_faces,
-            });
-        }
-        for (e, &f) in level.gvs_faces.iter().enumerate() {
-            if f as usize >= level.faces.len() {
-                return Err(GvsError::Face {
-                    entry: e,
-                    detail: format!("face {f} of {}", level.faces.len()),
-                });
-            }
-        }
-        let grid = CellGrid::build(&cells);
-        Ok(Gvs { cells, faces: level.gvs_faces.clone(), face_bounds, grid })
+        GvsCells::from_level(level).map(Self::new)
     }
 
-    /// Number of view cells.
-    pub fn num_cells(&self) -> usize {
-        self.cells.len()
-    }
-
-    /// Index of the cell answering for `eye` (see the module docs), `None` without cells. The
-    /// grid gives the few cells that can contain the eye, in index order; only an eye outside
-    /// every cell scans all cells for the nearest.
-    pub fn cell_at(&self, eye: Vec3A) -> Option<usize> {
-        for &i in self.grid.candidates(eye) {
-            if self.cells.get(i as usize).is_some_and(|c| distance_sq(c, eye) == 0.0) {
-                return Some(i as usize);
-            }
-        }
-        self.nearest_cell(eye)
-    }
-
-    /// The first cell at the least distance from `eye` (distance 0: containing it).
-    fn nearest_cell(&self, eye: Vec3A) -> Option<usize> {
-        let mut best: Option<(f32, usize)> = None;
-        for (i, c) in self.cells.iter().enumerate() {
-            let d = distance_sq(c, eye);
-            if d == 0.0 {
-                return Some(i);
-            }
-            if best.is_none_or(|(bd, _)| d < bd) {
-                best = Some((d, i));
-            }
-        }
-        best.map(|(_, i)| i)
-    }
-
-    /// The faces of cell `cell` (empty for a bad index).
-    pub fn cell_faces(&self, cell: usize) -> &[u32] {
-        self.cells
-            .get(cell)
-            .and_then(|c| self.faces.get(c.first as usize..c.first as usize + c.count as usize))
-            .unwrap_or(&[])
-    }
-
-    /// Append to `out` the faces of the eye's cell inside `frustum`, front to back.
-    pub fn query(&self, eye: Vec3A, frustum: &Frustum, out: &mut Vec<u32>) {
-        out.clear();
-        let Some(cell) = self.cell_at(eye) else {
-            return;
-        };
-        for &f in self.cell_faces(cell) {
-            let Some(b) = self.face_bounds.get(f as usize) else {
-                continue;
-            };
-            if !matches!(frustum.test_box(b.center, b.extent, Frustum::ALL), BoxSide::Outside) {
-                out.push(f);
-            }
-        }
-        let dist = |f: u32| {
-            self.face_bounds
-                .get(f as usize)
-                .map_or(0.0, |b| ((eye - b.center).abs() - b.extent).max(Vec3A::ZERO).length_squared())
-        };
-        out.sort_unstable_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(a.cmp(&b)));
+    /// The cells it answers with.
+    pub fn cells(&self) -> &GvsCells {
+        &self.cells
     }
 }
 
-/// Squared distance from `p` to a cell's box (0 inside).
-#[inline]
-fn distance_sq(c: &Cell, p: Vec3A) -> f32 {
-    (c.mins - p).max(p - c.maxs).max(Vec3A::ZERO).length_squared()
+/// True when `cells` can answer for `world`: it has cells, made for a level with its face count.
+fn fits(cells: &GvsCells, world: &World) -> bool {
+    !cells.is_empty() && world.num_faces() == cells.num_faces()
 }
 
-/// A uniform grid over the cells' boxes (at most [`CellGrid::MAX_PER_AXIS`] per axis): each grid
-/// cell lists, in ascending order, every view cell whose box, widened by [`CellGrid::MARGIN`],
-/// overlaps it. A view cell at distance 0 from a point (see [`distance_sq`]) is then in the list
-/// of the point's grid cell, so the first such cell of that list is the first of all cells.
-#[derive(Debug, Clone, Default)]
-struct CellGrid {
-    lo: Vec3A,
-    hi: Vec3A,
-    scale: Vec3A,
-    dims: [usize; 3],
-    /// CSR: view cells of grid cell `g` are `list[start[g]..start[g + 1]]`.
-    start: Vec<u32>,
-    list: Vec<u32>,
-}
-
-impl CellGrid {
-    const MAX_PER_AXIS: usize = 64;
-    /// Widening of the boxes (relative to the grid's size, plus one unit): far more than the
-    /// distance at which a squared distance rounds to zero.
-    const MARGIN: f32 = 1e-3;
-    /// Most list entries; a grid that would be larger is not built (every query scans).
-    const MAX_ENTRIES: usize = 1 << 22;
-
-    fn build(cells: &[Cell]) -> Self {
-        let Some(first) = cells.first() else { return Self::default() };
-        let (mut lo, mut hi) = (first.mins, first.maxs);
-        for c in cells {
-            lo = lo.min(c.mins);
-            hi = hi.max(c.maxs);
-        }
-        let margin = Vec3A::splat(
-            Self::MARGIN * (1.0 + (hi - lo).max_element() + lo.abs().max(hi.abs()).max_element()),
-        );
-        let (lo, hi) = (lo - margin, hi + margin);
-        let per_axis = (cells.len() as f64).cbrt().ceil().clamp(1.0, Self::MAX_PER_AXIS as f64) as usize;
-        let dims = [per_axis; 3];
-        let scale = Vec3A::splat(per_axis as f32) / (hi - lo).max(Vec3A::splat(f32::MIN_POSITIVE));
-        let mut grid = CellGrid { lo, hi, scale, dims, start: Vec::new(), list: Vec::new() };
-        let ranges: Vec<([usize; 3], [usize; 3])> =
-            cells.iter().map(|c| (grid.index(c.mins - margin), grid.index(c.maxs + margin))).collect();
-        let total: usize =
-            ranges.iter().map(|(a, b)| (0..3).map(|k| b[k] + 1 - a[k]).product::<usize>()).sum();
-        if total > Self::MAX_ENTRIES {
-            return Self::default();
-        }
-        let count = per_axis * per_axis * per_axis;
-        let mut counts = vec![0u32; count + 1];
-        let flat = |x: usize, y: usize, z: usize| (z * per_axis + y) * per_axis + x;
-        for (a, b) in &ranges {
-            for z in a[2]..=b[2] {
-                for y in a[1]..=b[1] {
-                    for x in a[0]..=b[0] {
-                        counts[flat(x, y, z) + 1] += 1;
-                    }
-                }
-            }
-        }
-        for g in 0..count {
-            counts[g + 1] += counts[g];
-        }
-        grid.start = counts.clone();
-        grid.list = vec![0; total];
-        for (i, (a, b)) in ranges.iter().enumerate() {
-            for z in a[2]..=b[2] {
-                for y in a[1]..=b[1] {
-                    for x in a[0]..=b[0] {
-                        let slot = &mut counts[flat(x, y, z)];
-                        grid.list[*slot as usize] = i as u32;
-                        *slot += 1;
-                    }
-                }
-            }
-        }
-        grid
-    }
-
-    /// Grid coordinates of `p`, clamped into the grid.
-    fn index(&self, p: Vec3A) -> [usize; 3] {
-        let g = ((p - self.lo) * self.scale).to_array();
-        std::array::from_fn(|k| (g[k].max(0.0) as usize).min(self.dims[k].saturating_sub(1)))
-    }
-
-    /// The view cells that may be at distance 0 from `p`, ascending (none outside the grid).
-    fn candidates(&self, p: Vec3A) -> &[u32] {
-        if self.dims[0] == 0 || !(p.cmpge(self.lo).all() && p.cmple(self.hi).all()) {
-            return &[];
-        }
-        let [x, y, z] = self.index(p);
-        let g = (z * self.dims[1] + y) * self.dims[0] + x;
-        match (self.start.get(g), self.start.get(g + 1)) {
-            (Some(&a), Some(&b)) => self.list.get(a as usize..b as usize).unwrap_or(&[]),
-            _ => &[],
-        }
-    }
+/// The frame of either backend.
+fn cull_cells(cells: &GvsCells, view: &View, scratch: &mut Scratch, out: &mut Visible) {
+    out.leaves.clear();
+    cells.query(view.eye, &view.frustum, &mut out.faces);
+    scratch.stats = FrameStats::default();
 }
 
 impl Backend for Gvs {
@@ -298,17 +59,15 @@ impl Backend for Gvs {
     }
 
     fn supports(&self, world: &World) -> bool {
-        !self.cells.is_empty() && world.num_faces() == self.face_bounds.len()
+        fits(&self.cells, world)
     }
 
     fn cull(&self, _world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
-        out.leaves.clear();
-        self.query(view.eye, &view.frustum, &mut out.faces);
-        scratch.stats = FrameStats::default();
+        cull_cells(&self.cells, view, scratch, out);
     }
 }
 
-/// The GVS backend over the cells a [`World`] carries ([`World::gvs`]); this is the value in
+/// The GVS backend over the cells a [`World`] carries ([`World::gvs_cells`]); this is the value in
 /// [`super::all`]. It supports a world loaded from a level with GVS cells; on any other world it
 /// outputs nothing.
 #[derive(Debug, Clone, Copy, Default)]
@@ -320,107 +79,16 @@ impl Backend for WorldGvs {
     }
 
     fn supports(&self, world: &World) -> bool {
-        world.gvs().is_some_and(|g| g.supports(world))
+        world.gvs_cells().is_some_and(|c| fits(c, world))
     }
 
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
-        match world.gvs() {
-            Some(g) => g.cull(world, view, scratch, out),
+        match world.gvs_cells() {
+            Some(cells) => cull_cells(cells, view, scratch, out),
             None => {
                 out.clear();
                 scratch.stats = FrameStats::default();
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::camera::Camera;
-    use glam::Vec3;
-    use sightline_formats::level::{Face, GvsCell};
-
-    /// Two unit squares in front of (+X) and behind (-X) the origin, one cell around the origin
-    /// seeing both, and one far cell seeing only the first.
-    fn level() -> Level {
-        let sq = |x: f32| [[x, -1.0, -1.0], [x, 1.0, -1.0], [x, 1.0, 1.0], [x, -1.0, 1.0]];
-        let mut vertices = sq(5.0).to_vec();
-        vertices.extend(sq(-5.0));
-        Level {
-            vertices,
-            faces: vec![
-                Face { plane: 0, first_vertex: 0, num_vertices: 4, texture: 0 },
-                Face { plane: 0, first_vertex: 4, num_vertices: 4, texture: 0 },
-            ],
-            gvs_cells: vec![
-                GvsCell { mins: [-1.0; 3], maxs: [1.0; 3], first_face: 0, num_faces: 2 },
-                GvsCell { mins: [100.0; 3], maxs: [101.0; 3], first_face: 2, num_faces: 1 },
-            ],
-            gvs_faces: vec![0, 1, 0],
-            ..Level::default()
-        }
-    }
-
-    #[test]
-    fn answers_with_the_frustum_culled_faces_of_the_eye_cell() {
-        let gvs = Gvs::from_level(&level()).expect("valid");
-        let mut out = Vec::new();
-        let cam = Camera::quake(Vec3::ZERO, 0.0, 0.0);
-        gvs.query(Vec3A::ZERO, &cam.view().frustum, &mut out);
-        assert_eq!(out, vec![0]);
-        let back = Camera::quake(Vec3::ZERO, 180.0, 0.0);
-        gvs.query(Vec3A::ZERO, &back.view().frustum, &mut out);
-        assert_eq!(out, vec![1]);
-        // Far away: the nearest cell (the second) answers.
-        assert_eq!(gvs.cell_at(Vec3A::splat(500.0)), Some(1));
-        assert_eq!(gvs.cell_faces(1), &[0]);
-    }
-
-    #[test]
-    fn grid_finds_the_same_cell_as_a_scan() {
-        use crate::poses::{SplitMix64, point_in};
-        let mut rng = SplitMix64::new(3);
-        let mut l = level();
-        l.gvs_cells.clear();
-        for _ in 0..300 {
-            let lo = point_in(&mut rng, Vec3A::splat(-500.0), Vec3A::splat(500.0));
-            let hi = lo + point_in(&mut rng, Vec3A::ZERO, Vec3A::splat(120.0));
-            l.gvs_cells.push(GvsCell {
-                mins: lo.to_array(),
-                maxs: hi.to_array(),
-                first_face: 0,
-                num_faces: 1,
-            });
-        }
-        let gvs = Gvs::from_level(&l).expect("valid");
-        assert!(!gvs.grid.list.is_empty());
-        let mut inside = 0;
-        for i in 0..20_000 {
-            let c = &gvs.cells[rng.below(gvs.cells.len())];
-            let mut p = match i % 3 {
-                0 => point_in(&mut rng, Vec3A::splat(-700.0), Vec3A::splat(700.0)),
-                _ => point_in(&mut rng, c.mins, c.maxs),
-            };
-            if i % 4 == 0 {
-                // Exactly on a box face.
-                p.x = c.maxs.x;
-            }
-            let want = gvs.nearest_cell(p);
-            assert_eq!(gvs.cell_at(p), want, "point {p:?}");
-            inside += usize::from(want.is_some_and(|c| distance_sq(&gvs.cells[c], p) == 0.0));
-        }
-        assert!(inside > 10_000, "{inside} points inside a cell");
-    }
-
-    #[test]
-    fn rejects_bad_indices() {
-        let mut l = level();
-        l.gvs_faces[2] = 9;
-        assert!(matches!(Gvs::from_level(&l), Err(GvsError::Face { entry: 2, .. })));
-        let mut l = level();
-        l.gvs_cells[1].num_faces = 5;
-        assert!(matches!(Gvs::from_level(&l), Err(GvsError::CellRange { cell: 1, .. })));
-        assert_eq!(Gvs::from_level(&Level::default()).map(|g| g.num_cells()), Ok(0));
     }
 }

@@ -24,7 +24,7 @@
 
 use glam::Vec3A;
 
-use crate::backend::Backend;
+use crate::backend::api::Backend;
 use crate::backend::pvs::Pvs;
 use crate::camera::View;
 use crate::scratch::{Scratch, Visible};
@@ -111,7 +111,7 @@ impl Search {
                 self.truncated = true;
                 break;
             }
-            let Some(portal) = world.portals.get(pi as usize) else { continue };
+            let Some(portal) = world.tree().portals.get(pi as usize) else { continue };
             // Orient the portal plane so that its front is the far side.
             let (other, n, d) = if portal.leaves[0] == leaf {
                 (portal.leaves[1], -portal.normal, -portal.dist)
@@ -123,7 +123,8 @@ impl Search {
             }
             let eye_side = n.dot(self.eye) - d;
             let start = portal.first_vertex as usize;
-            let Some(pts) = world.portal_vertices.get(start..start + portal.num_vertices as usize) else {
+            let Some(pts) = world.tree().portal_vertices.get(start..start + portal.num_vertices as usize)
+            else {
                 continue;
             };
             if eye_side > -PORTAL_EPSILON {

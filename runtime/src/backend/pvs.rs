@@ -6,7 +6,7 @@
 //! leaves marked up the tree in the caller's scratch, only when the eye moves to another cluster.
 //! The eye in solid, or a level without vis: everything.
 
-use crate::backend::Backend;
+use crate::backend::api::Backend;
 use crate::camera::View;
 use crate::scratch::{Scratch, Visible};
 use crate::walk::{Marks, walk};
@@ -32,7 +32,7 @@ impl Pvs {
             scratch.stats.marked_leaves = world.open_leaves().len() as u32;
             return Marks::ALL;
         };
-        if let Some((_, leaves)) = world.cluster_trees.as_ref().and_then(|t| t.root(c)) {
+        if let Some((_, leaves)) = world.cluster_trees().and_then(|t| t.root(c)) {
             scratch.stats.marked_leaves = leaves;
             return Marks::cluster(c);
         }
@@ -43,7 +43,7 @@ impl Pvs {
             let mut marked = 0;
             for visible in row.iter_ones() {
                 for &e in world.cluster_elements(visible as u32) {
-                    world.tree.mark_element(&mut scratch.marks, scratch.mark_gen, e);
+                    world.walk_tree().mark_element(&mut scratch.marks, scratch.mark_gen, e);
                     marked += 1;
                 }
             }

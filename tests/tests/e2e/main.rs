@@ -1,0 +1,22 @@
+//! End-to-end tests over the crates and the binary, in one test binary (one link instead of one
+//! per file). `hostile_inputs` stays a binary of its own: it installs a counting global allocator.
+
+mod brace_scan;
+mod bsp_roundtrip;
+mod bundled_expectations;
+mod compile_cli;
+mod compile_maps;
+mod gvs_visibility;
+mod info_cli;
+mod map_parse;
+mod mapgen;
+mod render_pixels;
+mod runtime_bench;
+mod runtime_compiled;
+mod runtime_ffi;
+mod runtime_hostile;
+mod runtime_real_maps;
+mod validate_compiled;
+mod validate_reference;
+mod vis_prt;
+mod vis_real;

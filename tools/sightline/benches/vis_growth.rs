@@ -1,0 +1,54 @@
+//! How vis time grows with the number of portals, on sealed maps from `tools::mapgen` (rooms,
+//! corridors, stairs, pillars, several storeys) compiled by `sightline_compiler::compile`.
+//!
+//! `cargo bench -p sightline --bench vis_growth` prints a Markdown table: rooms, storeys, vis
+//! leaves, portals, full vis seconds (wall and CPU, 2 threads), chains, average visible leaves,
+//! fast vis seconds.
+
+use std::time::Instant;
+
+use sightline_compiler::vis::{self, VisOptions};
+use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
+use sightline_validate::mapgen::{MapGenParams, generate};
+
+/// User + system CPU seconds of this process (`/proc/self/stat`, ticks of 1/100 s).
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
+    let Some((_, rest)) = stat.rsplit_once(')') else { return f64::NAN };
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+fn main() {
+    println!(
+        "| rooms | storeys | vis leaves | portals | full wall s | full CPU s | chains | avg visible | fast wall s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (rooms, storeys) in [(2, 1), (4, 1), (4, 2), (6, 3), (8, 3), (12, 3), (16, 4), (20, 5)] {
+        let params = MapGenParams { rooms_x: rooms, rooms_y: rooms, storeys, seed: 7 };
+        let text = generate(&params);
+        let file = format!("gen_{rooms}x{rooms}x{storeys}.map");
+        let map = sightline_formats::map::parse(&text, &file).expect("generated maps parse");
+        let compiled = compile(&Source::Map { map, file }, &CompileOptions::default(), &NoProgress)
+            .expect("generated maps compile");
+        let prt = &compiled.prt;
+        let run = |fast: bool| {
+            let cpu0 = cpu_seconds();
+            let t = Instant::now();
+            let r = vis::run(prt, &VisOptions { threads: 2, fast, ..VisOptions::default() }, &|_| {})
+                .expect("vis");
+            (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0, r)
+        };
+        let (wall, cpu, full) = run(false);
+        let (fast_wall, _, _) = run(true);
+        println!(
+            "| {r}×{r} | {storeys} | {leaves} | {portals} | {wall:.3} | {cpu:.2} | {chains} | {avg:.1} | {fast_wall:.3} |",
+            r = rooms,
+            leaves = prt.num_leaves,
+            portals = prt.portals.len(),
+            chains = full.stats.chains,
+            avg = full.stats.avg_visible,
+        );
+    }
+}

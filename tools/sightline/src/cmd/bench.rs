@@ -1,0 +1,319 @@
+//! `sightline bench`: time every runtime backend on deterministic random camera poses.
+//!
+//! Poses come from [`sightline_runtime::poses::random_cameras`] (SplitMix64 seeded by `--seed`):
+//! a random open leaf, a random point in it, random yaw, pitch within ±60°, Quake's 90° horizontal
+//! field of view at 4:3. Every pose is a new eye position, so the PVS backend decodes and marks a
+//! row nearly every frame (its worst case; a real camera stays in one cluster for many frames).
+//! Each backend runs all poses once to warm up, then once timed, one `Instant` pair per frame.
+//! A second, *coherent* measurement turns the camera in place: after each of the first
+//! `frames / 8` poses, seven more frames at the same eye, 5° further in yaw each (only those seven
+//! are timed), as a real camera that stays in one spot for a while.
+//! The GVS backend is measured when the level carries GVS cells (`sightline gvs ... -o`).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::json;
+use sightline_runtime::backend::{self, Backend, pvs::Pvs};
+use sightline_runtime::walk;
+use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
+
+use crate::cli::Outcome;
+
+/// Arguments of `sightline bench`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Level (`.slvl`) or Quake map (`.bsp`; a PRT1 `NAME.prt` beside it gives the portal backend
+    /// its portals).
+    pub input: PathBuf,
+    /// Camera poses (frames) per backend.
+    #[arg(long, default_value_t = 10_000)]
+    pub frames: usize,
+    /// Seed of the pose generator.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Only this backend (repeatable); default: every backend the level supports.
+    #[arg(long = "backend")]
+    pub backends: Vec<String>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Drop the per-cluster PVS trees after loading, so the PVS backend decodes and marks a row
+    /// per cluster change (what levels over the memory budget do).
+    #[arg(long)]
+    pub no_pvs_trees: bool,
+}
+
+/// Timings and counts of one backend.
+#[derive(Debug, Clone, serde::Serialize)]
+struct Report {
+    backend: &'static str,
+    frames: usize,
+    ns_per_frame_min: u64,
+    ns_per_frame_median: u64,
+    ns_per_frame_p99: u64,
+    ns_per_frame_mean: f64,
+    /// Leaves marked before the frustum: the PVS (or the leaves the portal search reached).
+    pvs_leaves_avg: f64,
+    /// Leaves output after the frustum.
+    visible_leaves_avg: f64,
+    visible_faces_avg: f64,
+    /// Tree nodes and leaves popped by the frustum walk, per frame.
+    nodes_visited_avg: f64,
+    /// Box–frustum tests per frame (the plane mask skips planes a parent box is fully inside).
+    box_tests_avg: f64,
+    /// Median over frames of (frame time / that frame's PVS leaves).
+    ns_per_pvs_leaf: f64,
+    /// PVS backend only: median time of locating the eye and choosing its PVS (a lookup when the
+    /// world keeps its per-cluster PVS trees, else decoding the row and marking up the tree).
+    mark_ns_median: Option<u64>,
+    /// PVS backend only: median time of the frustum walk alone.
+    walk_ns_median: Option<u64>,
+    /// PVS backend only: median over frames of (walk time / PVS leaves), comparable to the C
+    /// reference's 68 ns (its traversal time over its PVS leaves).
+    walk_ns_per_pvs_leaf: Option<f64>,
+    /// Frames where the portal search hit its budget.
+    truncated_frames: usize,
+    /// Portal backend: portals crossed per frame, mean and 99th percentile (deterministic).
+    portals_crossed_avg: f64,
+    portals_crossed_p99: u32,
+    /// Median ns per frame of the coherent camera (turning in place; see the module docs).
+    coherent_ns_median: u64,
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
+    let mut world =
+        load::load_path(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    if args.no_pvs_trees {
+        world.drop_pvs_trees();
+    }
+    let cams = poses::random_cameras(&world, args.seed, args.frames);
+    anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
+    let unsupported: Vec<(&str, &str)> = backend::all()
+        .iter()
+        .filter(|b| !b.supports(&world))
+        .map(|b| (b.name(), why_not(b.name())))
+        .collect();
+    let chosen: Vec<&dyn Backend> = if args.backends.is_empty() {
+        backend::all().iter().copied().filter(|b| b.supports(&world)).collect()
+    } else {
+        args.backends
+            .iter()
+            .map(|name| {
+                let b = backend::by_name(name).with_context(|| format!("unknown backend `{name}`"))?;
+                anyhow::ensure!(
+                    b.supports(&world),
+                    "backend `{name}` cannot run on this level: {}",
+                    why_not(name)
+                );
+                Ok(b)
+            })
+            .collect::<anyhow::Result<_>>()?
+    };
+    let reports: Vec<Report> = chosen.iter().map(|b| measure(&world, *b, &cams)).collect();
+    if args.json {
+        let out = json!({
+            "input": args.input.display().to_string(),
+            "frames": cams.len(),
+            "seed": args.seed,
+            "leaves": world.num_leaves(),
+            "open_leaves": world.open_leaves().len(),
+            "clusters": world.num_clusters(),
+            "portals": world.num_portals(),
+            "pvs_trees_in_memory": world.pvs_trees_in_memory(),
+            "gvs_cells": world.gvs_cells().map_or(0, |g| g.num_cells()),
+            "not_run": unsupported.iter().map(|(b, why)| json!({ "backend": b, "reason": why })).collect::<Vec<_>>(),
+            "camera": { "fov_y": cams[0].fov_y, "aspect": cams[0].aspect, "pitch_range": 60 },
+            "backends": reports,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        print_table(&args.input, &world, cams.len(), args.seed, &reports);
+        if args.backends.is_empty() {
+            for (name, why) in &unsupported {
+                println!("{name:<8} not run: {why}");
+            }
+        }
+    }
+    Ok(Outcome::Clean)
+}
+
+/// Why a backend does not support a level.
+fn why_not(name: &str) -> &'static str {
+    match name {
+        "portal" => "the level has no portals",
+        "gvs" => "the level has no GVS cells (write them with `sightline gvs LEVEL.slvl -o OUT.slvl`)",
+        _ => "not supported by this level",
+    }
+}
+
+fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let views: Vec<_> = cams.iter().map(Camera::view).collect();
+    for view in &views {
+        backend.cull(world, view, &mut scratch, &mut out);
+    }
+    let mut times = Vec::with_capacity(views.len());
+    let mut per_leaf = Vec::with_capacity(views.len());
+    let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
+    let (mut visited, mut tests) = (0u64, 0u64);
+    let mut crossed = Vec::with_capacity(views.len());
+    for view in &views {
+        let start = Instant::now();
+        backend.cull(world, view, &mut scratch, &mut out);
+        let ns = start.elapsed().as_nanos() as u64;
+        times.push(ns);
+        per_leaf.push(ns as f64 / f64::from(scratch.stats.marked_leaves.max(1)));
+        marked += u64::from(scratch.stats.marked_leaves);
+        leaves += out.leaves.len() as u64;
+        faces += out.faces.len() as u64;
+        truncated += usize::from(scratch.stats.truncated);
+        visited += u64::from(scratch.stats.nodes_visited);
+        tests += u64::from(scratch.stats.box_tests);
+        crossed.push(scratch.stats.portals_crossed);
+    }
+    let portals_crossed_avg = crossed.iter().map(|&c| f64::from(c)).sum::<f64>() / views.len().max(1) as f64;
+    crossed.sort_unstable();
+    let portals_crossed_p99 =
+        crossed.get(((crossed.len().saturating_sub(1)) as f64 * 0.99).round() as usize).copied().unwrap_or(0);
+    let n = views.len() as f64;
+    let mean = times.iter().sum::<u64>() as f64 / n;
+    times.sort_unstable();
+    let pick = |q: f64| times.get(((times.len() - 1) as f64 * q).round() as usize).copied().unwrap_or(0);
+    let pvs_avg = marked as f64 / n;
+    let (mark_ns, walk_ns, walk_per_leaf) =
+        if backend.name() == "pvs" { phases(world, &views) } else { (None, None, None) };
+    let coherent_ns_median = coherent(world, backend, cams);
+    Report {
+        backend: backend.name(),
+        frames: views.len(),
+        ns_per_frame_min: pick(0.0),
+        ns_per_frame_median: pick(0.5),
+        ns_per_frame_p99: pick(0.99),
+        ns_per_frame_mean: mean,
+        pvs_leaves_avg: pvs_avg,
+        visible_leaves_avg: leaves as f64 / n,
+        visible_faces_avg: faces as f64 / n,
+        nodes_visited_avg: visited as f64 / n,
+        box_tests_avg: tests as f64 / n,
+        ns_per_pvs_leaf: median(&mut per_leaf),
+        mark_ns_median: mark_ns,
+        walk_ns_median: walk_ns,
+        walk_ns_per_pvs_leaf: walk_per_leaf,
+        truncated_frames: truncated,
+        coherent_ns_median,
+        portals_crossed_avg,
+        portals_crossed_p99,
+    }
+}
+
+/// Median ns per frame of a camera turning in place (see the module docs).
+fn coherent(world: &World, backend: &dyn Backend, cams: &[Camera]) -> u64 {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let mut times = Vec::new();
+    for cam in cams.iter().take(cams.len().div_ceil(8)) {
+        backend.cull(world, &cam.view(), &mut scratch, &mut out);
+        for k in 1..8 {
+            let view = Camera { yaw: cam.yaw + 5.0 * k as f32, ..*cam }.view();
+            let start = Instant::now();
+            backend.cull(world, &view, &mut scratch, &mut out);
+            times.push(start.elapsed().as_nanos() as f64);
+        }
+    }
+    median(&mut times) as u64
+}
+
+/// Median of a sample (0 for none).
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_unstable_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Medians of the PVS backend's two phases (locate + decode + mark, then the walk) and of the
+/// walk time per PVS leaf.
+fn phases(world: &World, views: &[sightline_runtime::View]) -> (Option<u64>, Option<u64>, Option<f64>) {
+    let mut scratch = Scratch::new(world);
+    let mut out = Visible::for_world(world);
+    let (mut mark, mut walk, mut per_leaf) = (Vec::new(), Vec::new(), Vec::new());
+    for view in views {
+        let t0 = Instant::now();
+        let leaf = world.leaf_at(view.eye);
+        let marks = Pvs::mark(world, leaf, &mut scratch);
+        let marked = scratch.stats.marked_leaves;
+        let t1 = Instant::now();
+        walk::walk(world, view, marks, &mut scratch, &mut out);
+        let t2 = Instant::now();
+        mark.push((t1 - t0).as_nanos() as f64);
+        walk.push((t2 - t1).as_nanos() as f64);
+        per_leaf.push((t2 - t1).as_nanos() as f64 / f64::from(marked.max(1)));
+    }
+    (Some(median(&mut mark) as u64), Some(median(&mut walk) as u64), Some(median(&mut per_leaf)))
+}
+
+fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64, reports: &[Report]) {
+    println!(
+        "{}: {} leaves ({} open), {} clusters, {} portals; {frames} random poses, seed {seed}",
+        input.display(),
+        world.num_leaves(),
+        world.open_leaves().len(),
+        world.num_clusters(),
+        world.num_portals()
+    );
+    println!(
+        "{:<8} {:>9} {:>9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10}",
+        "backend",
+        "min ns",
+        "median ns",
+        "p99 ns",
+        "PVS leaves",
+        "after frus.",
+        "faces",
+        "ns/PVS lf",
+        "walk ns/lf"
+    );
+    for r in reports {
+        let walk = r.walk_ns_per_pvs_leaf.map_or_else(|| "-".to_string(), |w| format!("{w:.1}"));
+        // GVS cells are not leaves: no PVS leaves to divide by.
+        let per_leaf =
+            if r.pvs_leaves_avg > 0.0 { format!("{:.1}", r.ns_per_pvs_leaf) } else { "-".to_string() };
+        println!(
+            "{:<8} {:>9} {:>9} {:>9} {:>10.1} {:>11.1} {:>10.1} {:>10} {:>10}",
+            r.backend,
+            r.ns_per_frame_min,
+            r.ns_per_frame_median,
+            r.ns_per_frame_p99,
+            r.pvs_leaves_avg,
+            r.visible_leaves_avg,
+            r.visible_faces_avg,
+            per_leaf,
+            walk
+        );
+        if let (Some(m), Some(w)) = (r.mark_ns_median, r.walk_ns_median) {
+            let how = if world.pvs_trees_in_memory() {
+                "locate + PVS tree lookup"
+            } else {
+                "locate + decode + mark"
+            };
+            println!("         phases (medians): {how} {m} ns, walk {w} ns");
+        }
+        println!("         coherent camera (turning in place): median {} ns", r.coherent_ns_median);
+        println!(
+            "         walk: {:.1} nodes and leaves visited, {:.1} box tests per frame",
+            r.nodes_visited_avg, r.box_tests_avg
+        );
+        if r.backend == "portal" {
+            println!(
+                "         portals crossed per frame: mean {:.1}, p99 {}",
+                r.portals_crossed_avg, r.portals_crossed_p99
+            );
+        }
+        if r.truncated_frames > 0 {
+            println!("         {} frames hit the portal search budget", r.truncated_frames);
+        }
+    }
+}

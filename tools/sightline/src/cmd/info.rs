@@ -1,0 +1,356 @@
+//! `sightline info <file> [--json]`: counts and bounds of any file Sightline reads.
+//!
+//! The kind of file comes from [`FileKind::detect`]: its extension (`.map`, `.obj`, `.prt`, `.bsp`,
+//! `.slvl`) and, when the extension is missing or unknown, its first bytes. [`report`] builds the
+//! [`InfoReport`] that both the text and the JSON outputs print; its JSON keys are stable and
+//! documented in README ("sightline info").
+
+use std::path::Path;
+
+use anyhow::Context;
+use serde::Serialize;
+use sightline_formats::geom::Aabb;
+use sightline_formats::{FileKind, bsp, map, obj, prt, slvl};
+
+use crate::cli::Outcome;
+
+/// Arguments of `sightline info`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input file: `.map`, `.obj`, `.prt`, `.bsp` or `.slvl`.
+    pub input: std::path::PathBuf,
+    /// Print the report as JSON (keys documented in README).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let report = report(&args.input)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.to_text());
+    }
+    Ok(Outcome::Clean)
+}
+
+/// What `info` prints: the file as given and what was found in it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InfoReport {
+    /// The path as given.
+    pub file: String,
+    /// The kind-specific counts; serialized flat with a `"kind"` key.
+    #[serde(flatten)]
+    pub details: Details,
+}
+
+/// An axis-aligned box in world units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Bounds {
+    /// Smallest corner.
+    pub mins: [f64; 3],
+    /// Largest corner.
+    pub maxs: [f64; 3],
+}
+
+impl Bounds {
+    /// Rounded to 0.001 units, which hides the round-off of clipped windings.
+    fn from_aabb(b: &Aabb) -> Option<Self> {
+        let round = |v: [f64; 3]| v.map(|x| (x * 1000.0).round() / 1000.0);
+        (!b.is_empty()).then(|| Self { mins: round(b.mins.to_array()), maxs: round(b.maxs.to_array()) })
+    }
+
+    fn from_f32(mins: [f32; 3], maxs: [f32; 3]) -> Self {
+        Self { mins: mins.map(f64::from), maxs: maxs.map(f64::from) }
+    }
+}
+
+/// Visible-leaf statistics decoded from PVS rows.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PvsSummary {
+    /// Mean number of visible leaves per non-solid (vis) leaf.
+    pub avg_visible_leaves: f64,
+    /// Largest number of visible leaves of one leaf.
+    pub max_visible_leaves: usize,
+}
+
+/// Per-kind counts.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Details {
+    /// A Quake `.map`.
+    Map {
+        /// `"standard"` or `"valve220"`.
+        format: &'static str,
+        /// Entities including worldspawn.
+        entities: usize,
+        /// Entities with brushes other than worldspawn (func_door, func_detail, ...).
+        brush_entities: usize,
+        /// Brushes of all entities.
+        brushes: usize,
+        /// Brush sides of all entities.
+        sides: usize,
+        /// Box around every brush corner; `null` without brushes.
+        bounds: Option<Bounds>,
+    },
+    /// A Wavefront `.obj`.
+    Obj {
+        /// Vertices after indexing (one per distinct `v/vt/vn` triple).
+        vertices: usize,
+        /// Triangles after triangulation.
+        triangles: usize,
+        /// Box around every vertex; `null` for an empty mesh.
+        bounds: Option<Bounds>,
+    },
+    /// A `.prt` portal file.
+    Prt {
+        /// `"prt1"`, `"prt2"` or `"prt1_am"`.
+        format: &'static str,
+        /// Vis leaves.
+        leaves: u32,
+        /// Clusters (equal to `leaves` for PRT1).
+        clusters: u32,
+        /// Portals (each one line, i.e. two one-way portals for vis).
+        portals: usize,
+        /// Box around every portal winding; `null` without portals.
+        bounds: Option<Bounds>,
+    },
+    /// A Quake BSP.
+    Bsp {
+        /// `"BSP29"`, `"BSP2"` or `"BSP2-RMQ"`.
+        version: &'static str,
+        /// Leaves including the shared solid leaf 0.
+        leaves: usize,
+        /// Leaves with PVS rows (world model's `visleafs`).
+        visleafs: usize,
+        /// Brush models including the world.
+        models: usize,
+        /// Size of the visibility lump.
+        visdata_bytes: usize,
+        /// Whether the file carries vis data.
+        has_vis: bool,
+        /// Decoded from the rows (a leaf without a row sees every vis leaf); `null` without vis leaves.
+        pvs: Option<PvsSummary>,
+        /// World model bounds; `null` without models.
+        bounds: Option<Bounds>,
+    },
+    /// A Sightline level.
+    Slvl {
+        /// Leaves including solid ones.
+        leaves: usize,
+        /// Leaves that belong to a cluster (the world's non-solid leaves).
+        vis_leaves: usize,
+        /// Clusters (PVS row length in bits).
+        clusters: u32,
+        /// Portals between non-solid leaves.
+        portals: usize,
+        /// Interior nodes.
+        nodes: usize,
+        /// Faces.
+        faces: usize,
+        /// Brush models including the world.
+        models: usize,
+        /// Bytes of compressed PVS rows.
+        visdata_bytes: usize,
+        /// Whether the level carries a PVS.
+        has_vis: bool,
+        /// Decoded from the cluster rows, counted in leaves; `null` without vis leaves.
+        pvs: Option<PvsSummary>,
+        /// World model bounds; `null` without models.
+        bounds: Option<Bounds>,
+    },
+}
+
+/// Read `path` and build its report.
+pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {name}"))?;
+    let kind = FileKind::detect(path, &bytes)
+        .with_context(|| format!("{name}: unknown file kind (expected .map, .obj, .prt, .bsp or .slvl)"))?;
+    let details = match kind {
+        FileKind::Map => map_details(&text_of(&bytes, &name)?, &name)?,
+        FileKind::Obj => {
+            let mesh = obj::load_from_bytes(&bytes, &name)?;
+            Details::Obj {
+                vertices: mesh.positions.len(),
+                triangles: mesh.triangles.len(),
+                bounds: Bounds::from_aabb(&mesh.bounds()),
+            }
+        }
+        FileKind::Prt => prt_details(&prt::read(&text_of(&bytes, &name)?, &name)?),
+        FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
+            .with_context(|| format!("{name}: bad PVS row"))?,
+        FileKind::Slvl => slvl_details(&bytes).with_context(|| format!("{name}: invalid level"))?,
+    };
+    Ok(InfoReport { file: name, details })
+}
+
+fn text_of(bytes: &[u8], name: &str) -> anyhow::Result<String> {
+    String::from_utf8(bytes.to_vec())
+        .map_err(|e| anyhow::anyhow!("{name}: byte {}: not UTF-8 text", e.utf8_error().valid_up_to()))
+}
+
+fn map_details(text: &str, name: &str) -> anyhow::Result<Details> {
+    let map = map::parse(text, name)?;
+    Ok(Details::Map {
+        format: match map.format {
+            map::MapFormat::Standard => "standard",
+            map::MapFormat::Valve220 => "valve220",
+        },
+        entities: map.entities.len(),
+        brush_entities: map.entities.iter().skip(1).filter(|e| !e.brushes.is_empty()).count(),
+        brushes: map.brushes().count(),
+        sides: map.brushes().map(|b| b.sides.len()).sum(),
+        bounds: Bounds::from_aabb(&map.bounds()),
+    })
+}
+
+fn prt_details(p: &prt::PortalFile) -> Details {
+    let bounds = p.portals.iter().fold(Aabb::EMPTY, |b, portal| b.union(&portal.winding.bounds()));
+    Details::Prt {
+        format: match p.format {
+            prt::PrtFormat::Prt1 => "prt1",
+            prt::PrtFormat::Prt2 => "prt2",
+            prt::PrtFormat::Prt1Am => "prt1_am",
+        },
+        leaves: p.num_leaves,
+        clusters: p.num_clusters,
+        portals: p.portals.len(),
+        bounds: Bounds::from_aabb(&bounds),
+    }
+}
+
+fn bsp_details(b: &bsp::Bsp) -> anyhow::Result<Details> {
+    let stats = b.pvs_stats()?;
+    Ok(Details::Bsp {
+        version: b.version.name(),
+        leaves: b.leaves.len(),
+        visleafs: b.visleafs(),
+        models: b.models.len(),
+        visdata_bytes: b.visdata.len(),
+        has_vis: !b.visdata.is_empty(),
+        pvs: stats
+            .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
+        bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+    })
+}
+
+fn slvl_details(bytes: &[u8]) -> anyhow::Result<Details> {
+    let level = slvl::read(bytes)?;
+    let vis_leaves = level.vis_leaves();
+    Ok(Details::Slvl {
+        leaves: level.leaves.len(),
+        vis_leaves,
+        clusters: level.num_clusters,
+        portals: level.portals.len(),
+        nodes: level.nodes.len(),
+        faces: level.faces.len(),
+        models: level.models.len(),
+        visdata_bytes: level.pvs_data.len(),
+        has_vis: level.has_vis(),
+        pvs: level
+            .pvs_stats()?
+            .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
+        bounds: level.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+    })
+}
+
+impl InfoReport {
+    /// The human-readable form: one `key: value` line per count.
+    pub fn to_text(&self) -> String {
+        let mut out = format!("file: {}\n", self.file);
+        let mut line = |k: &str, v: String| out.push_str(&format!("{k}: {v}\n"));
+        let bounds = |b: &Option<Bounds>| {
+            b.map_or("none".to_string(), |b| {
+                format!(
+                    "({} {} {}) to ({} {} {})",
+                    b.mins[0], b.mins[1], b.mins[2], b.maxs[0], b.maxs[1], b.maxs[2]
+                )
+            })
+        };
+        let pvs = |p: &Option<PvsSummary>| {
+            p.map_or("none".to_string(), |p| {
+                format!("average {:.1} visible leaves, max {}", p.avg_visible_leaves, p.max_visible_leaves)
+            })
+        };
+        match &self.details {
+            Details::Map { format, entities, brush_entities, brushes, sides, bounds: b } => {
+                line("kind", format!("map ({format})"));
+                line("entities", format!("{entities} ({brush_entities} brush entities)"));
+                line("brushes", brushes.to_string());
+                line("sides", sides.to_string());
+                line("bounds", bounds(b));
+            }
+            Details::Obj { vertices, triangles, bounds: b } => {
+                line("kind", "obj".into());
+                line("vertices", vertices.to_string());
+                line("triangles", triangles.to_string());
+                line("bounds", bounds(b));
+            }
+            Details::Prt { format, leaves, clusters, portals, bounds: b } => {
+                line("kind", format!("prt ({format})"));
+                line("leaves", leaves.to_string());
+                line("clusters", clusters.to_string());
+                line("portals", portals.to_string());
+                line("bounds", bounds(b));
+            }
+            Details::Bsp { version, leaves, visleafs, models, visdata_bytes, has_vis, pvs: p, bounds: b } => {
+                line("kind", format!("bsp ({version})"));
+                line("leaves", format!("{leaves} ({visleafs} vis leaves)"));
+                line("models", models.to_string());
+                line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
+                line("pvs", pvs(p));
+                line("bounds", bounds(b));
+            }
+            Details::Slvl {
+                leaves,
+                vis_leaves,
+                clusters,
+                portals,
+                nodes,
+                faces,
+                models,
+                visdata_bytes,
+                has_vis,
+                pvs: p,
+                bounds: b,
+            } => {
+                line("kind", "slvl".into());
+                line("leaves", format!("{leaves} ({vis_leaves} vis leaves, {clusters} clusters)"));
+                line("portals", portals.to_string());
+                line("nodes", nodes.to_string());
+                line("faces", faces.to_string());
+                line("models", models.to_string());
+                line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
+                line("pvs", pvs(p));
+                line("bounds", bounds(b));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn text_report_lists_counts() {
+        let report = InfoReport {
+            file: "x.obj".into(),
+            details: Details::Obj {
+                vertices: 3,
+                triangles: 1,
+                bounds: Some(Bounds { mins: [0.0; 3], maxs: [1.0, 2.0, 3.0] }),
+            },
+        };
+        assert_eq!(
+            report.to_text(),
+            "file: x.obj\nkind: obj\nvertices: 3\ntriangles: 1\nbounds: (0 0 0) to (1 2 3)\n"
+        );
+        let json = serde_json::to_value(&report).expect("serializes");
+        assert_eq!(json["kind"], "obj");
+        assert_eq!(json["bounds"]["maxs"][2], 3.0);
+    }
+}

@@ -1,0 +1,116 @@
+//! `sightline validate`: prove a PVS conservative by ray sampling and measure how tight it is.
+
+use std::sync::Mutex;
+
+use indicatif::ProgressBar;
+
+use crate::cli::Outcome;
+use sightline_validate::{self as validate, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
+
+/// `--oracle`: the values of [`OracleChoice`] on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OracleArg {
+    /// The BSP tree only.
+    Tree,
+    /// The face mesh only.
+    Mesh,
+    /// Both, and their disagreement.
+    Both,
+}
+
+impl From<OracleArg> for OracleChoice {
+    fn from(o: OracleArg) -> Self {
+        match o {
+            OracleArg::Tree => OracleChoice::Tree,
+            OracleArg::Mesh => OracleChoice::Mesh,
+            OracleArg::Both => OracleChoice::Both,
+        }
+    }
+}
+
+/// Validation's progress as bars, one per oracle; nothing when `quiet` (`--json`).
+#[derive(Debug)]
+pub struct Bars {
+    quiet: bool,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl Bars {
+    /// Bars, hidden when `quiet`.
+    pub fn new(quiet: bool) -> Self {
+        Self { quiet, bar: Mutex::new(None) }
+    }
+}
+
+impl validate::Progress for Bars {
+    fn begin(&self, phase: &str, total: u64) {
+        if let Ok(mut b) = self.bar.lock() {
+            *b = Some(crate::progress::bar(phase, total, self.quiet));
+        }
+    }
+
+    fn advance(&self, n: u64) {
+        if let Ok(b) = self.bar.lock()
+            && let Some(b) = b.as_ref()
+        {
+            b.inc(n);
+        }
+    }
+
+    fn end(&self) {
+        if let Ok(mut b) = self.bar.lock()
+            && let Some(b) = b.take()
+        {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Arguments of `sightline validate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A Quake `.bsp` with visdata, or a Sightline `.slvl`.
+    pub input: std::path::PathBuf,
+    /// Ray budget per oracle, spread evenly over the open leaves (10 rays per bundle: 5 lines
+    /// cast both ways).
+    #[arg(long, default_value_t = DEFAULT_RAYS)]
+    pub rays: u64,
+    /// Seed of the random streams (results are identical for any thread count).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Bundle offset in world units: each bundle is a centre line and four lines this far from it,
+    /// and a leaf counts only when all five reach it. 0 casts single lines (reports crack noise).
+    #[arg(long, default_value_t = DEFAULT_OFFSET)]
+    pub offset: f64,
+    /// Which oracle to sample against: the BSP tree, the face mesh (BVH), or both.
+    #[arg(long, value_enum, default_value_t = OracleArg::Both)]
+    pub oracle: OracleArg,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    if !(args.offset >= 0.0 && args.offset < 64.0) {
+        anyhow::bail!("--offset must be in [0, 64) world units, got {}", args.offset);
+    }
+    let level = load::load_level(&args.input)?;
+    if !level.has_vis() {
+        eprintln!("note: {} has no PVS (everything visible): nothing can be missed", args.input.display());
+    }
+    let pvs = pvs::level_pvs(&level)?;
+    let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: args.oracle.into() };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let mut v = pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json)))?;
+    v.report.input = args.input.display().to_string();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&v.report)?);
+    } else {
+        print!("{}", v.report.text());
+    }
+    Ok(if v.report.misses() > 0 { Outcome::Finding } else { Outcome::Clean })
+}

@@ -1,0 +1,98 @@
+//! Loading a level from any file `validate` and `render` accept.
+
+use std::path::{Path, PathBuf};
+
+use sightline_formats::bsp::BspError;
+use sightline_formats::slvl::SlvlError;
+use sightline_formats::{Level, bsp, slvl};
+
+/// Why a level file could not be loaded. Each variant names the file; the cause, when there is
+/// one, is the error's [`source`](std::error::Error::source).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("reading {}", .path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A `.bsp` file that is not a valid Quake BSP.
+    #[error("{}", .path.display())]
+    Bsp {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        #[source]
+        source: BspError,
+    },
+    /// A `.slvl` file that is not a valid Sightline level.
+    #[error("{}", .path.display())]
+    Slvl {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        #[source]
+        source: SlvlError,
+    },
+    /// Neither `.bsp` nor `.slvl`.
+    #[error("{}: expected a .bsp or .slvl file", .path.display())]
+    UnknownExtension {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+/// Read a Sightline `.slvl`, or a Quake `.bsp` (through [`bsp::to_level`]: one cluster per vis
+/// leaf), as a [`Level`].
+pub fn load_level(path: &Path) -> Result<Level, LoadError> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
+    match ext.as_str() {
+        "bsp" => {
+            let b =
+                bsp::read(&bytes).map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
+            Ok(bsp::to_level(&b))
+        }
+        "slvl" => slvl::read(&bytes).map_err(|source| LoadError::Slvl { path: path.to_path_buf(), source }),
+        _ => Err(LoadError::UnknownExtension { path: path.to_path_buf() }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    /// The CLI prints an error and its sources joined by ": " (anyhow's `{:#}`).
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut s = e.to_string();
+        let mut cur = e.source();
+        while let Some(c) = cur {
+            s += &format!(": {c}");
+            cur = c.source();
+        }
+        s
+    }
+
+    #[test]
+    fn errors_name_the_file_once() {
+        let e = load_level(Path::new("/nonexistent/x.bsp")).unwrap_err();
+        let io = std::fs::read("/nonexistent/x.bsp").unwrap_err();
+        assert_eq!(chain(&e), format!("reading /nonexistent/x.bsp: {io}"));
+        let dir = std::env::temp_dir().join(format!("sightline-validate-load-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (bad_bsp, other) = (dir.join("bad.bsp"), dir.join("level.txt"));
+        std::fs::write(&bad_bsp, b"nope").unwrap();
+        std::fs::write(&other, b"nope").unwrap();
+        let e = load_level(&bad_bsp).unwrap_err();
+        let cause = e.source().unwrap().to_string();
+        assert_eq!(chain(&e), format!("{}: {cause}", bad_bsp.display()));
+        let e = load_level(&other).unwrap_err();
+        assert_eq!(chain(&e), format!("{}: expected a .bsp or .slvl file", other.display()));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
