@@ -19,6 +19,8 @@ pub mod portals;
 pub mod vis;
 pub mod visdata;
 
+pub use sightline_formats::progress::{NoProgress, Progress};
+
 pub use visdata::store_pvs;
 
 use std::time::Instant;
@@ -103,26 +105,6 @@ pub struct CompileOptions {
     pub allow_leak: bool,
     /// Run vis on the portals and store the PVS in the level (`None`: stop after portals).
     pub vis: Option<vis::VisOptions>,
-}
-
-/// Receives progress; the CLI draws bars with it.
-pub trait Progress: Sync {
-    /// A phase starts with `total` steps.
-    fn begin(&self, phase: &str, total: u64);
-    /// `n` steps of the current phase are done.
-    fn advance(&self, n: u64);
-    /// The current phase is over.
-    fn end(&self);
-}
-
-/// A [`Progress`] that shows nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn begin(&self, _: &str, _: u64) {}
-    fn advance(&self, _: u64) {}
-    fn end(&self) {}
 }
 
 /// Time spent in one phase.
@@ -219,6 +201,7 @@ impl std::fmt::Display for LeakReport {
 
 /// Why a compile failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum CompileError {
     /// The map has no entities.
     #[error("{file}: the map has no entities (a map starts with a worldspawn entity)")]

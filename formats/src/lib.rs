@@ -21,6 +21,7 @@ pub mod level;
 pub mod map;
 #[cfg(feature = "obj")]
 pub mod obj;
+pub mod progress;
 pub mod prt;
 pub mod rle;
 pub mod rng;

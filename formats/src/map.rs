@@ -179,6 +179,7 @@ impl std::fmt::Display for BrushRef {
 
 /// What went wrong while parsing a `.map`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MapErrorKind {
     /// The file holds no entity at all.
     #[error("empty map: no entities")]

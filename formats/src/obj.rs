@@ -46,6 +46,7 @@ impl TriMesh {
 
 /// What went wrong loading an `.obj`; every variant names the file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ObjError {
     /// The file could not be read.
     #[error("{path}")]

@@ -76,6 +76,7 @@ pub struct PortalFile {
 
 /// What went wrong while reading a `.prt`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PrtErrorKind {
     /// The first token is not `PRT1`, `PRT2` or `PRT1-AM`.
     #[error("unknown portal file header `{0}`, expected PRT1, PRT2 or PRT1-AM")]

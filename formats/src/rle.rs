@@ -13,6 +13,7 @@ use thiserror::Error;
 
 /// Why a compressed row could not be decoded.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
 pub enum RleError {
     /// The input ended before the row was full.
     #[error("compressed PVS row truncated at byte {offset}: {decoded} of {row_bytes} bytes decoded")]

@@ -11,6 +11,11 @@
 //! Cost per visited node: the node record (pre-order, so descents read forwards), a mark test and a
 //! branch-free eight-lane box test per child (the two tests are independent), and branch-free
 //! pushes of the children that pass.
+//!
+//! **Invariant:** both walks (over a cluster's PVS tree and over a mark set) output exactly what
+//! `check::reference_walk` (feature `testkit`: recursive, scalar, over the level's own tables)
+//! outputs: the same leaves, faces and order. Tested on synthetic grids and on random poses of
+//! real maps.
 
 use crate::camera::{Frustum, View};
 use crate::layout::{MarkSet, SHARED_FACE, WalkTree};

@@ -5,7 +5,8 @@
 //! point of `p` lies behind `t`'s plane, both by more than [`COPLANAR_EPSILON`]; candidates are
 //! then flooded through clusters from the cluster `p` leads to. A leaf 0.01 units thick passes:
 //! only portals within [`COPLANAR_EPSILON`] of the plane (numerically the same plane, where a
-//! line through both would lie in the plane) are refused.
+//! line through both would lie in the plane) are refused. (The reference `vis` uses 0.1 here,
+//! which lets a leaf 0.01 units thick block sight.)
 
 use rayon::prelude::*;
 

@@ -118,6 +118,7 @@ pub struct VisProgress {
 
 /// What went wrong.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum VisError {
     /// The portal file is inconsistent.
     #[error("invalid portal file: {0}")]

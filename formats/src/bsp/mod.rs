@@ -297,6 +297,7 @@ pub struct Bsp {
 
 /// Everything that can be wrong with a BSP file or a write request.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
 pub enum BspError {
     /// The file cannot hold the header.
     #[error("file is {len} bytes, shorter than the {HEADER_BYTES}-byte BSP header")]

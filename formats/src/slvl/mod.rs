@@ -176,6 +176,7 @@ pub struct WriteOptions {
 
 /// Everything that can be wrong with a `.slvl` file or a level.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
 pub enum SlvlError {
     /// The file cannot hold the header.
     #[error("file is {len} bytes, shorter than the {HEADER_BYTES}-byte .slvl header")]

@@ -34,6 +34,8 @@ pub mod twins;
 mod union_find;
 pub mod update;
 
+pub use sightline_formats::progress::{NoProgress, Progress};
+
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -164,26 +166,6 @@ impl Variant {
 /// (`spheres:10116`, 2 cells) 338 k target rays per cell instead of 116 k (+2.8 % rays), and the
 /// error counted per object 3.4 → 1.9 pixels per view.
 pub const TARGETS_DEFAULT: u32 = 3;
-
-/// Receives progress of long runs; the CLI draws bars with it.
-pub trait Progress: Sync {
-    /// A phase starts with `total` steps.
-    fn begin(&self, phase: &str, total: u64);
-    /// `n` steps of the current phase are done.
-    fn advance(&self, n: u64);
-    /// The current phase is over.
-    fn end(&self);
-}
-
-/// A [`Progress`] that shows nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn begin(&self, _: &str, _: u64) {}
-    fn advance(&self, _: u64) {}
-    fn end(&self) {}
-}
 
 /// Run `variant` (its parameters from `base`, see [`Variant::params`]) on every cell with
 /// [`run_cells`]; `progress` gets a phase named after the variant with a step per cell.

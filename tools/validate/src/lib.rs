@@ -39,6 +39,8 @@ pub mod report;
 pub mod rng;
 pub mod sample;
 
+pub use sightline_formats::progress::{NoProgress, Progress};
+
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -139,27 +141,6 @@ pub enum ValidateError {
     },
 }
 
-/// Receives progress of [`validate`]: one phase per oracle (`"tree"`, `"mesh"`), one step per
-/// sampled leaf and coverage step. The CLI draws bars with it.
-pub trait Progress: Sync {
-    /// A phase starts with `total` steps.
-    fn begin(&self, phase: &str, total: u64);
-    /// `n` steps of the current phase are done (called from worker threads).
-    fn advance(&self, n: u64);
-    /// The current phase is over.
-    fn end(&self);
-}
-
-/// A [`Progress`] that shows nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn begin(&self, _: &str, _: u64) {}
-    fn advance(&self, _: u64) {}
-    fn end(&self) {}
-}
-
 impl Default for Options {
     fn default() -> Self {
         Self { rays: DEFAULT_RAYS, seed: 1, offset: DEFAULT_OFFSET, oracle: OracleChoice::Both }
@@ -204,8 +185,9 @@ pub struct Validation {
 /// Fractions of the budget at which coverage is measured.
 pub const COVERAGE_STEPS: [(u32, u32); 4] = [(1, 8), (1, 4), (1, 2), (1, 1)];
 
-/// Validate `pvs` (a cluster matrix, normally [`pvs::level_pvs`]) against ray samples of `level`,
-/// reporting each oracle's progress to `progress`.
+/// Validate `pvs` (a cluster matrix, normally [`pvs::level_pvs`]) against ray samples of `level`.
+/// `progress` gets one phase per oracle (`"tree"`, `"mesh"`) with a step per sampled leaf and
+/// coverage step, advanced from worker threads.
 pub fn validate(
     level: &Level,
     pvs: &BitMatrix,

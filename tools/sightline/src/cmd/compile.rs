@@ -5,17 +5,15 @@
 //! void), 2 an error. Files are written atomically (temporary file, then rename).
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use anyhow::Context;
-use indicatif::ProgressBar;
 use sightline_compiler::vis::VisError;
-use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Progress, Source, compile};
+use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
 use sightline_formats::atomic::write_file_atomic;
 
 use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;
+use crate::progress::Bars;
 
 /// Arguments of `sightline compile`.
 #[derive(Debug, clap::Args)]
@@ -42,51 +40,6 @@ pub struct Args {
     /// Print the result as JSON on stdout (no progress bars).
     #[arg(long)]
     pub json: bool,
-}
-
-/// Progress bars, one per phase. Steps are passed to the bar 32 at a time (an update per vis
-/// portal cost a third of the flow time on small maps); nothing is passed under `--json`.
-struct Bars {
-    quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
-    pending: AtomicU64,
-}
-
-/// Steps gathered before the bar is updated.
-const STEPS_PER_UPDATE: u64 = 32;
-
-impl Progress for Bars {
-    fn begin(&self, phase: &str, total: u64) {
-        self.pending.store(0, Ordering::Relaxed);
-        if let Ok(mut b) = self.bar.lock() {
-            *b = Some(crate::progress::bar(phase, total, self.quiet));
-        }
-    }
-
-    fn advance(&self, n: u64) {
-        if self.quiet {
-            return;
-        }
-        let pending = self.pending.fetch_add(n, Ordering::Relaxed) + n;
-        if pending < STEPS_PER_UPDATE {
-            return;
-        }
-        let n = self.pending.swap(0, Ordering::Relaxed);
-        if let Ok(b) = self.bar.lock()
-            && let Some(b) = b.as_ref()
-        {
-            b.inc(n);
-        }
-    }
-
-    fn end(&self) {
-        if let Ok(mut b) = self.bar.lock()
-            && let Some(b) = b.take()
-        {
-            b.inc(self.pending.swap(0, Ordering::Relaxed));
-            b.finish_and_clear();
-        }
-    }
 }
 
 fn with_extension(path: &Path, ext: &str) -> PathBuf {
@@ -122,7 +75,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         allow_leak: args.allow_leak,
         vis: (!args.no_vis).then(|| args.vis.options()),
     };
-    let bars = Bars { quiet: args.json, bar: Mutex::new(None), pending: AtomicU64::new(0) };
+    // Some phases advance per brush or face from worker threads: gather 32 steps per update.
+    let bars = Bars::batched(args.json, 32);
     let compiled = match compile(&source, &opts, &bars) {
         Ok(c) => c,
         Err(CompileError::Leak(leak)) => {

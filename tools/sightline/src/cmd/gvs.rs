@@ -12,12 +12,10 @@
 //! parses the arguments, draws the progress bars, times the phases and prints.
 
 use std::path::Path;
-use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use glam::Vec3;
-use indicatif::ProgressBar;
 use serde::Serialize;
 use sightline_gvs::error::{self, ErrorStats};
 use sightline_gvs::metric::{MeasuredView, Metric, PIXEL_BUDGET, ViewOptions};
@@ -29,7 +27,7 @@ use sightline_gvs::{
 use sightline_raycast::Bvh;
 
 use crate::cli::Outcome;
-use crate::progress;
+use crate::progress::Bars;
 
 /// Arguments of `sightline gvs`.
 #[derive(Debug, clap::Args)]
@@ -465,54 +463,6 @@ fn row(name: &str, pvs: &[Pvs], errors: [ErrorStats; 2]) -> Row {
         error_objects_max: obj_err.map(|e| e.1),
         gvs_rays_per_cpu_second: None,
         capped_cells: pvs.iter().filter(|p| p.stats.capped).count(),
-    }
-}
-
-/// Progress bars of the library's phases, one at a time; hidden under `--json` (see
-/// [`progress::bar`]).
-struct Bars {
-    quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
-}
-
-impl Bars {
-    fn new(quiet: bool) -> Self {
-        Bars { quiet, bar: Mutex::new(None) }
-    }
-
-    /// Run `f` (which prints) with the current bar, if any, hidden.
-    fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
-        match self.bar.lock() {
-            Ok(b) => match b.as_ref() {
-                Some(b) => b.suspend(f),
-                None => f(),
-            },
-            Err(_) => f(),
-        }
-    }
-}
-
-impl gvs::Progress for Bars {
-    fn begin(&self, phase: &str, total: u64) {
-        if let Ok(mut b) = self.bar.lock() {
-            *b = Some(progress::bar(phase, total, self.quiet));
-        }
-    }
-
-    fn advance(&self, n: u64) {
-        if let Ok(b) = self.bar.lock()
-            && let Some(b) = b.as_ref()
-        {
-            b.inc(n);
-        }
-    }
-
-    fn end(&self) {
-        if let Ok(mut b) = self.bar.lock()
-            && let Some(b) = b.take()
-        {
-            b.finish_and_clear();
-        }
     }
 }
 

@@ -16,7 +16,7 @@ use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_formats::Level;
 
 use crate::cli::Outcome;
-use crate::cmd::validate::Bars;
+use crate::progress::Bars;
 use sightline_validate::bsp::BspTree;
 use sightline_validate::render::plan::{PlanOptions, render_plan};
 use sightline_validate::render::view::{Camera, render_view};

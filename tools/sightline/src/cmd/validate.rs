@@ -1,10 +1,7 @@
 //! `sightline validate`: prove a PVS conservative by ray sampling and measure how tight it is.
 
-use std::sync::Mutex;
-
-use indicatif::ProgressBar;
-
 use crate::cli::Outcome;
+use crate::progress::Bars;
 use sightline_validate::{self as validate, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
 
 /// `--oracle`: the values of [`OracleChoice`] on the command line.
@@ -24,44 +21,6 @@ impl From<OracleArg> for OracleChoice {
             OracleArg::Tree => OracleChoice::Tree,
             OracleArg::Mesh => OracleChoice::Mesh,
             OracleArg::Both => OracleChoice::Both,
-        }
-    }
-}
-
-/// Validation's progress as bars, one per oracle; nothing when `quiet` (`--json`).
-#[derive(Debug)]
-pub struct Bars {
-    quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
-}
-
-impl Bars {
-    /// Bars, hidden when `quiet`.
-    pub fn new(quiet: bool) -> Self {
-        Self { quiet, bar: Mutex::new(None) }
-    }
-}
-
-impl validate::Progress for Bars {
-    fn begin(&self, phase: &str, total: u64) {
-        if let Ok(mut b) = self.bar.lock() {
-            *b = Some(crate::progress::bar(phase, total, self.quiet));
-        }
-    }
-
-    fn advance(&self, n: u64) {
-        if let Ok(b) = self.bar.lock()
-            && let Some(b) = b.as_ref()
-        {
-            b.inc(n);
-        }
-    }
-
-    fn end(&self) {
-        if let Ok(mut b) = self.bar.lock()
-            && let Some(b) = b.take()
-        {
-            b.finish_and_clear();
         }
     }
 }
