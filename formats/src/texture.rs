@@ -88,6 +88,11 @@ impl TextureKind {
         TOOLS.iter().find(|(p, _)| starts_with_ignore_case(name, p)).map_or(Self::Solid, |&(_, k)| k)
     }
 
+    /// True for the liquids (`*…`: water, slime, lava), whose faces sight passes through.
+    pub fn is_liquid(self) -> bool {
+        matches!(self, Self::Water | Self::Slime | Self::Lava)
+    }
+
     /// The contents a side of this texture gives its brush when it is a liquid or sky.
     pub fn contents(self) -> Option<Contents> {
         match self {

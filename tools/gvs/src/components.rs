@@ -8,6 +8,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use sightline_formats::bits;
 
 use super::geom::Cell;
 use super::union_find::ParityForest;
@@ -98,18 +99,14 @@ impl Components {
         reached
     }
 
-    /// Bitset over `n` triangles (bit `t % 64` of word `t / 64`) of every triangle whose component
+    /// Bitset over `n` triangles (a `formats::bits` word row) of every triangle whose component
     /// holds one of `found`: the PVS at the level of objects, as the thesis counts its error
     /// (a pixel of a sphere is wrong only when no part of that sphere was found). Triangles of
     /// no component are covered when they are in `found` themselves.
     pub fn covered(&self, n: usize, found: impl IntoIterator<Item = u32> + Clone) -> Vec<u64> {
         let reached = self.reached(found.clone());
-        let mut bits = vec![0u64; n.div_ceil(64)];
-        let mut set = |t: u32| {
-            if let Some(w) = bits.get_mut(t as usize / 64) {
-                *w |= 1 << (t % 64);
-            }
-        };
+        let mut row = vec![0u64; bits::words(n)];
+        let mut set = |t: u32| bits::set(&mut row, t as usize);
         for t in found {
             if self.of(t) == Self::NONE {
                 set(t);
@@ -120,7 +117,7 @@ impl Components {
                 set(t);
             }
         }
-        bits
+        row
     }
 }
 

@@ -8,6 +8,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use sightline_formats::bits;
 use sightline_raycast::{Bvh, intersect_brute};
 
 use super::geom::Cell;
@@ -126,7 +127,7 @@ pub fn id_buffer(
 
 /// True when triangle `t` is in the PVS bitset `pvs` (`u32::MAX`, nothing, never is).
 fn has(pvs: &[u64], t: u32) -> bool {
-    t != u32::MAX && pvs.get(t as usize / 64).is_some_and(|w| w & (1 << (t % 64)) != 0)
+    t != u32::MAX && bits::get(pvs, t as usize)
 }
 
 /// The pixels of `buf` whose triangle is not in `pvs` but a tied twin is, ascending.

@@ -25,6 +25,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
+use sightline_formats::bits;
 use sightline_raycast::{Bvh, intersect_brute};
 
 use super::SceneIndex;
@@ -214,13 +215,11 @@ pub struct Pvs {
 impl Pvs {
     /// Membership bitset over `n` triangles.
     pub fn bitset(&self, n: usize) -> Vec<u64> {
-        let mut bits = vec![0u64; n.div_ceil(64)];
+        let mut row = vec![0u64; bits::words(n)];
         for e in &self.entries {
-            if let Some(w) = bits.get_mut(e.tri as usize / 64) {
-                *w |= 1 << (e.tri % 64);
-            }
+            bits::set(&mut row, e.tri as usize);
         }
-        bits
+        row
     }
 
     /// Triangle indices, sorted.
@@ -375,7 +374,7 @@ impl<'a> Gvs<'a> {
             targets: &index.targets,
             cell,
             p,
-            in_pvs: vec![0; tris.len().div_ceil(64)],
+            in_pvs: vec![0; bits::words(tris.len())],
             tried: vec![0; if p.silhouette { tris.len() } else { 0 }],
             probe_state: vec![0; if p.probe { tris.len() } else { 0 }],
             sheet_side: vec![0; if p.probe { tris.len() } else { 0 }],
@@ -392,15 +391,15 @@ impl<'a> Gvs<'a> {
 
     /// True when `tri` is in the PVS.
     fn has(&self, tri: u32) -> bool {
-        self.in_pvs.get(tri as usize / 64).is_some_and(|w| w & (1 << (tri % 64)) != 0)
+        bits::get(&self.in_pvs, tri as usize)
     }
 
     /// Add `tri` to the PVS; returns false when it was there already.
     pub(super) fn insert(&mut self, tri: u32, origin: Vec3, hit: Vec3) -> bool {
-        let Some(w) = self.in_pvs.get_mut(tri as usize / 64) else {
+        let Some(w) = self.in_pvs.get_mut(bits::word_of(tri as usize)) else {
             return false;
         };
-        let bit = 1 << (tri % 64);
+        let bit = bits::mask(tri as usize);
         if *w & bit != 0 {
             return false;
         }

@@ -24,6 +24,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use rayon::prelude::*;
+use sightline_formats::bits;
 
 use super::SceneIndex;
 use super::geom::Fan;
@@ -40,7 +41,7 @@ pub fn update(index: &SceneIndex, prev: &Pvs, v: Vec3, params: Params) -> Pvs {
     let start = Instant::now();
     let cell = prev.cell.translated(v);
     let old = prev.bitset(tris.len());
-    let was_in = |t: u32| old.get(t as usize / 64).is_some_and(|w| w & (1 << (t % 64)) != 0);
+    let was_in = |t: u32| bits::get(&old, t as usize);
     let mut g = Gvs::new(index, cell, params);
     let mut still = Vec::new();
     for e in &prev.entries {

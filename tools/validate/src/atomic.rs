@@ -3,6 +3,8 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use sightline_formats::bits;
+
 use super::pvs::BitMatrix;
 
 /// `n × n` bits, row-major, shared between threads.
@@ -16,7 +18,7 @@ pub struct AtomicBitMatrix {
 impl AtomicBitMatrix {
     /// All clear.
     pub fn new(n: usize) -> Self {
-        let words = n.div_ceil(64);
+        let words = bits::words(n);
         Self { n, words, bits: (0..words * n).map(|_| AtomicU64::new(0)).collect() }
     }
 
@@ -26,8 +28,8 @@ impl AtomicBitMatrix {
         if a >= self.n || b >= self.n {
             return;
         }
-        let w = &self.bits[a * self.words + b / 64];
-        let mask = 1u64 << (b % 64);
+        let w = &self.bits[a * self.words + bits::word_of(b)];
+        let mask = bits::mask(b);
         if w.load(Ordering::Relaxed) & mask == 0 {
             w.fetch_or(mask, Ordering::Relaxed);
         }
@@ -38,11 +40,8 @@ impl AtomicBitMatrix {
         let mut m = BitMatrix::new(self.n);
         for a in 0..self.n {
             for wi in 0..self.words {
-                let mut w = self.bits[a * self.words + wi].load(Ordering::Relaxed);
-                while w != 0 {
-                    let bit = w.trailing_zeros() as usize;
-                    m.set(a, wi * 64 + bit);
-                    w &= w - 1;
+                for b in bits::word_ones(wi, self.bits[a * self.words + wi].load(Ordering::Relaxed)) {
+                    m.set(a, b);
                 }
             }
         }

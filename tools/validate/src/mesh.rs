@@ -12,6 +12,7 @@
 //! world (for example through the unfaced outside of a sky brush) and its leaves mean nothing.
 
 use glam::{DVec3, Vec3};
+use sightline_formats::texture::TextureKind;
 use sightline_raycast::Bvh;
 
 use super::bsp::{BspTree, Crossing};
@@ -79,7 +80,8 @@ impl<'a> MeshOracle<'a> {
             let Some(corners) = level.vertices.get(v0..v0 + f.num_vertices as usize) else {
                 return Err(MeshError::CornersOutOfRange { face: first + i });
             };
-            let liquid_name = level.textures.get(f.texture as usize).is_some_and(|t| t.starts_with('*'));
+            let liquid_name =
+                level.textures.get(f.texture as usize).is_some_and(|t| TextureKind::of(t).is_liquid());
             let through = liquid_name || open_on_both_sides(tree, f.plane, corners);
             for k in 2..corners.len() {
                 triangles.push([Vec3::from(corners[0]), Vec3::from(corners[k - 1]), Vec3::from(corners[k])]);

@@ -2,7 +2,7 @@
 //!
 //! Bit `(a, b)` set means "cluster `a` sees cluster `b`".
 
-use sightline_formats::{Level, rle};
+use sightline_formats::{Level, bits, rle};
 
 use crate::ValidateError;
 
@@ -17,7 +17,7 @@ pub struct BitMatrix {
 impl BitMatrix {
     /// All clear.
     pub fn new(n: usize) -> Self {
-        let words = n.div_ceil(64);
+        let words = bits::words(n);
         Self { n, words, bits: vec![0; words * n] }
     }
 
@@ -34,7 +34,7 @@ impl BitMatrix {
     /// Bit `(a, b)`; false out of range.
     #[inline]
     pub fn get(&self, a: usize, b: usize) -> bool {
-        a < self.n && b < self.n && self.bits[a * self.words + b / 64] >> (b % 64) & 1 == 1
+        a < self.n && b < self.n && self.bits[a * self.words + bits::word_of(b)] & bits::mask(b) != 0
     }
 
     /// Set bit `(a, b)` (ignored out of range); true when it was clear.
@@ -43,8 +43,8 @@ impl BitMatrix {
         if a >= self.n || b >= self.n {
             return false;
         }
-        let w = &mut self.bits[a * self.words + b / 64];
-        let mask = 1u64 << (b % 64);
+        let w = &mut self.bits[a * self.words + bits::word_of(b)];
+        let mask = bits::mask(b);
         let was = *w & mask != 0;
         *w |= mask;
         !was
@@ -53,7 +53,7 @@ impl BitMatrix {
     /// Clear bit `(a, b)` (ignored out of range).
     pub fn clear(&mut self, a: usize, b: usize) {
         if a < self.n && b < self.n {
-            self.bits[a * self.words + b / 64] &= !(1u64 << (b % 64));
+            self.bits[a * self.words + bits::word_of(b)] &= !bits::mask(b);
         }
     }
 
@@ -107,7 +107,7 @@ pub fn level_pvs(level: &Level) -> Result<BitMatrix, ValidateError> {
             source,
         })?;
         for b in 0..n {
-            if row[b >> 3] >> (b & 7) & 1 == 1 {
+            if bits::bytes::get(&row, b) {
                 m.set(a, b);
             }
         }
