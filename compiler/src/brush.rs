@@ -5,10 +5,28 @@
 //! clipping a huge square on each plane by every other side (keeping the part behind it) with
 //! [`ON_EPSILON`]; a side left without a winding touches the brush in an edge or a point only and
 //! is dropped.
+//!
+//! A winding whose corners behind another side's plane all lie within [`ON_EPSILON`] of it (a
+//! narrow side between sides at small angles, as on a cylinder of thousands of sides: a strip
+//! 0.2 units wide lies within 0.001 units of its neighbours' planes) would be dropped by the
+//! epsilon test; it is clipped by that plane exactly instead, since dropping it would lose a real
+//! face of the brush (and the brush itself once fewer than four sides were left).
+//! [`Winding::cleaned`] still drops what is narrower than [`ON_EPSILON`], such as a side that
+//! touches the brush along an edge. Building the windings takes time quadratic in the sides of one
+//! brush (each side is clipped by every other) and memory linear in them; a map's brushes have at
+//! most [`MAX_BRUSH_SIDES`].
 
 use glam::DVec3;
 use sightline_formats::geom::ON_EPSILON;
 use sightline_formats::{Aabb, Contents, PlaneSet, Winding};
+
+/// Most sides a brush of a `.map` may have; a compile refuses a brush with more, naming it
+/// (`file:line`, entity and brush). Building a brush's windings clips each side by every other,
+/// and the tree peels a convex brush one side plane at a time, so the work on one brush grows with
+/// the square of its sides (a 1,024-sided cylinder compiled in 2.4 s, a 5,000-sided one in 73 s,
+/// 2026-11-26). q3map2 has a limit of the same kind (300 to 1,024 sides, by version); the Quake
+/// maps in `shared/maps` have at most 33 sides in a brush.
+pub const MAX_BRUSH_SIDES: usize = 1024;
 
 /// Marker for a side that has no texture (sides created by splits).
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -87,7 +105,7 @@ impl Brush {
                     continue;
                 }
                 let Some(cur) = w else { break };
-                w = cur.clip(&planes.get(other.plane as usize).flipped(), ON_EPSILON, false);
+                w = clip_behind(&cur, planes.get(other.plane as usize));
             }
             if let Some(w) = w.map(|w| w.cleaned(ON_EPSILON)).filter(|w| !w.is_empty()) {
                 map[i] = Some(sides.len());
@@ -207,6 +225,13 @@ impl Brush {
     }
 }
 
+/// The part of `w` behind `plane`, clipped with [`ON_EPSILON`]; when that leaves nothing, the
+/// part strictly behind `plane`, clipped exactly (see the module docs).
+fn clip_behind(w: &Winding, plane: &sightline_formats::Plane) -> Option<Winding> {
+    let behind = plane.flipped();
+    w.clip(&behind, ON_EPSILON, false).or_else(|| w.clip(&behind, 0.0, false))
+}
+
 fn bounds_of(sides: &[BrushSide]) -> Aabb {
     Aabb::from_points(sides.iter().flat_map(|s| s.winding.points.iter().copied()))
 }
@@ -246,6 +271,53 @@ mod tests {
         assert!((total - 64.0f64.powi(3)).abs() < 1e-3, "{total}");
         // The cut takes a corner off: five box sides and the cut remain on the far part.
         assert_eq!(f.sides.len(), 7);
+    }
+
+    /// A prism over a regular `n`-gon of radius `r` around the z axis, from z = 0 to z = 64.
+    fn prism(planes: &mut PlaneSet, n: usize, r: f64) -> Vec<SideSpec> {
+        let mut specs = Vec::with_capacity(n + 2);
+        for i in 0..n {
+            let a = std::f64::consts::TAU * (i as f64 + 0.5) / n as f64;
+            let normal = DVec3::new(a.cos(), a.sin(), 0.0);
+            let dist = r * (std::f64::consts::PI / n as f64).cos();
+            specs.push(SideSpec { plane: planes.insert(Plane { normal, dist }) as u32, hint: false });
+        }
+        for plane in [Plane { normal: DVec3::Z, dist: 64.0 }, Plane { normal: DVec3::NEG_Z, dist: 0.0 }] {
+            specs.push(SideSpec { plane: planes.insert(plane) as u32, hint: false });
+        }
+        specs
+    }
+
+    #[test]
+    fn thousands_of_narrow_sides_all_keep_their_windings() {
+        // Sides 0.2 units wide whose neighbours turn by 0.002 radians: every side's strip lies
+        // within ON_EPSILON of the next planes, which must clip it, not drop it.
+        for n in [8, 3000] {
+            let mut planes = PlaneSet::new();
+            let specs = prism(&mut planes, n, 100.0);
+            let (brush, map) = Brush::from_planes(&planes, &specs, Contents::Solid).expect("a prism");
+            // The plane set snaps normals within NORMAL_EPSILON of an axis onto it, which can make
+            // two sides next to an axis one plane: every distinct plane keeps its side.
+            let distinct: std::collections::HashSet<u32> = specs.iter().map(|s| s.plane).collect();
+            assert!(distinct.len() + 4 >= n + 2, "{n}: {} distinct planes", distinct.len());
+            assert_eq!(brush.sides.len(), distinct.len(), "{n} sides");
+            assert_eq!(map.iter().flatten().count(), distinct.len());
+            // Each winding covers its side (a strip as wide as the n-gon's edge, 64 high) and lies
+            // behind every other plane within ON_EPSILON.
+            let edge = 2.0 * 100.0 * (std::f64::consts::PI / n as f64).sin();
+            for s in &brush.sides[..brush.sides.len() - 2] {
+                assert!(s.winding.area() >= edge * 64.0 * (1.0 - 1e-6), "{n}: {}", s.winding.area());
+            }
+            for s in &brush.sides {
+                for other in &brush.sides {
+                    let plane = planes.get(other.plane as usize);
+                    assert!(s.winding.points.iter().all(|&p| plane.distance(p) <= ON_EPSILON * 1.01));
+                }
+            }
+            let area = n as f64 / 2.0 * 100.0f64.powi(2) * (std::f64::consts::TAU / n as f64).sin();
+            let cap = brush.sides[brush.sides.len() - 1].winding.area();
+            assert!((cap - area).abs() < 1e-3 * area, "{n}: cap area {cap} vs {area}");
+        }
     }
 
     #[test]

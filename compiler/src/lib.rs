@@ -83,15 +83,19 @@ pub enum SourceError {
 impl Source {
     /// Reads `path`: an `.obj` ([`sightline_formats::FileKind::from_extension`]) as a mesh, any
     /// other file as a `.map`. The file name kept for messages is `path` as given.
+    ///
+    /// A `.map` is read as bytes ([`sightline_formats::map::parse_bytes`]): UTF-8 text as it is,
+    /// any other file as Latin-1, so Quake's high-bit characters in strings are accepted and kept
+    /// (as the characters `U+0080..=U+00FF` in the level's entity text). An `.obj`'s faces of one
+    /// or two vertices are skipped; [`compile`] reports their count as a warning.
     pub fn read(path: &std::path::Path) -> Result<Self, SourceError> {
         let file = path.display().to_string();
         if sightline_formats::FileKind::from_extension(path) == Some(sightline_formats::FileKind::Obj) {
             let mesh = mesh::Mesh::from(&sightline_formats::obj::load(path)?);
             return Ok(Source::Mesh { mesh, file });
         }
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| SourceError::Read { file: file.clone(), source })?;
-        let map = sightline_formats::map::parse(&text, &file)?;
+        let bytes = std::fs::read(path).map_err(|source| SourceError::Read { file: file.clone(), source })?;
+        let map = sightline_formats::map::parse_bytes(&bytes, &file)?;
         Ok(Source::Map { map, file })
     }
 }
@@ -244,6 +248,18 @@ pub enum CompileError {
         line: u32,
         /// What it is.
         what: String,
+    },
+    /// An entity's `origin` is not three finite numbers.
+    #[error("{file}:{line}: the origin of `{classname}` is \"{value}\", not three finite numbers")]
+    BadOrigin {
+        /// Source file.
+        file: String,
+        /// Line of the entity.
+        line: u32,
+        /// Its class.
+        classname: String,
+        /// The `origin` value as written.
+        value: String,
     },
     /// Nothing to build a tree from.
     #[error("{file}: the world has no solid brushes to build a tree from")]

@@ -2,12 +2,14 @@
 
 use std::collections::HashMap;
 
+use glam::DVec3;
+
 use sightline_formats::geom::WORLD_LIMIT;
 use sightline_formats::map::{Entity, MapFile};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::{Contents, PlaneSet};
 
-use crate::brush::{Brush, BrushProblem, NO_TEXTURE, SideSpec};
+use crate::brush::{Brush, BrushProblem, MAX_BRUSH_SIDES, NO_TEXTURE, SideSpec};
 use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role};
 use crate::csg::{CsgBrush, clip_faces};
 use crate::outside::Seed;
@@ -35,6 +37,13 @@ fn entity_text(out: &mut String, e: &Entity, model: Option<usize>) {
         out.push_str(&format!("\"model\" \"*{m}\"\n"));
     }
     out.push_str("}\n");
+}
+
+/// An `origin` value: exactly three finite numbers separated by white space.
+fn parse_origin(text: &str) -> Option<DVec3> {
+    let mut it = text.split_whitespace().map(|t| t.parse::<f64>().ok().filter(|v| v.is_finite()));
+    let v = DVec3::new(it.next()??, it.next()??, it.next()??);
+    it.next().is_none().then_some(v)
 }
 
 pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Result<Prepared, CompileError> {
@@ -66,8 +75,15 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
     for (ei, e) in map.entities.iter().enumerate() {
         let role = entity_role(e.classname(), !e.brushes.is_empty());
         if ei > 0
-            && let Some(origin) = e.origin()
+            && let Some(text) = e.get("origin")
         {
+            // A malformed origin would silently drop the entity's seed (a leak going unreported).
+            let origin = parse_origin(text).ok_or_else(|| CompileError::BadOrigin {
+                file: file.to_string(),
+                line: e.line,
+                classname: e.classname().to_string(),
+                value: text.to_string(),
+            })?;
             if origin.abs().max_element() > WORLD_LIMIT {
                 return Err(CompileError::HugeCoordinate {
                     file: file.to_string(),
@@ -98,6 +114,13 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                 brush: bi,
                 problem: problem.to_string(),
             };
+            if b.sides.len() > MAX_BRUSH_SIDES {
+                return Err(bad(&format!(
+                    "{} sides, more than the {MAX_BRUSH_SIDES} a brush may have (the work on one brush grows \
+                     with the square of its sides): split it into several brushes",
+                    b.sides.len()
+                )));
+            }
             let kind = brush_kind(b.sides.iter().map(|s| s.texture.as_str()));
             let contents = match kind {
                 BrushKind::Contents(c) => c,
@@ -221,4 +244,56 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         tree: None,
         fill: true,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{CompileOptions, NoProgress, compile};
+
+    #[test]
+    fn origins_must_be_three_finite_numbers() {
+        assert_eq!(parse_origin(" 1 -2.5\t3e2 "), Some(DVec3::new(1.0, -2.5, 300.0)));
+        for bad in ["nan nan nan", "inf 0 0", "0 -inf 0", "1e400 0 0", "abc", "1 2", "", "1 2 3 4", "1 2 x"] {
+            assert_eq!(parse_origin(bad), None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_malformed_origin_is_an_error_with_file_and_line() {
+        // A room open to the void whose only point entity has a malformed origin: without the
+        // entity's seed the leak would go unreported (an empty level and a warning).
+        let room = "( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) wall 0 0 0 1 1\n\
+            ( 64 0 0 ) ( 64 0 1 ) ( 64 1 0 ) wall 0 0 0 1 1\n\
+            ( 0 0 0 ) ( 0 0 1 ) ( 1 0 0 ) wall 0 0 0 1 1\n\
+            ( 0 64 0 ) ( 1 64 0 ) ( 0 64 1 ) wall 0 0 0 1 1\n\
+            ( 0 0 0 ) ( 1 0 0 ) ( 0 1 0 ) wall 0 0 0 1 1\n\
+            ( 0 0 8 ) ( 0 1 8 ) ( 1 0 8 ) wall 0 0 0 1 1\n";
+        for value in ["nan nan nan", "inf 0 0", "1e400 0 0", "abc", "1 2", "1 2 3 4", ""] {
+            let text = format!(
+                "{{\n\"classname\" \"worldspawn\"\n{{\n{room}}}\n}}\n{{\n\"classname\" \"info_player_start\"\n\"origin\" \"{value}\"\n}}\n"
+            );
+            let map = sightline_formats::map::parse(&text, "o.map").expect("parses");
+            let source = Source::Map { map, file: "o.map".into() };
+            let err = compile(&source, &CompileOptions::default(), &NoProgress).expect_err(value);
+            assert!(matches!(err, CompileError::BadOrigin { line: 12, .. }), "{value:?}: {err}");
+            let msg = err.to_string();
+            assert!(msg.starts_with("o.map:12:") && msg.contains("info_player_start"), "{msg}");
+        }
+        // Out of the world is its own error; a good origin still finds the leak.
+        for (value, huge) in [("1e30 0 0", true), ("32 32 40", false)] {
+            let text = format!(
+                "{{\n\"classname\" \"worldspawn\"\n{{\n{room}}}\n}}\n{{\n\"classname\" \"info_player_start\"\n\"origin\" \"{value}\"\n}}\n"
+            );
+            let map = sightline_formats::map::parse(&text, "o.map").expect("parses");
+            let err =
+                compile(&Source::Map { map, file: "o.map".into() }, &CompileOptions::default(), &NoProgress)
+                    .expect_err(value);
+            if huge {
+                assert!(matches!(err, CompileError::HugeCoordinate { line: 12, .. }), "{err}");
+            } else {
+                assert!(matches!(err, CompileError::Leak(_)), "{err}");
+            }
+        }
+    }
 }

@@ -26,13 +26,19 @@ pub const MAX_CANDIDATES: usize = 32;
 pub struct Mesh {
     /// Triangles, counter-clockwise seen from their front (outside).
     pub triangles: Vec<[DVec3; 3]>,
+    /// Faces of the source with one or two vertices, left out when it was read
+    /// ([`sightline_formats::obj::TriMesh::skipped_faces`]); a compile reports them as a warning.
+    pub skipped_faces: usize,
 }
 
 impl From<&sightline_formats::obj::TriMesh> for Mesh {
     /// The triangles of an `.obj` mesh, in file order (a triangle with an index out of range is
-    /// left out).
+    /// left out), and its count of skipped faces.
     fn from(obj: &sightline_formats::obj::TriMesh) -> Self {
-        Self { triangles: (0..obj.triangles.len()).filter_map(|i| obj.triangle(i)).collect() }
+        Self {
+            triangles: (0..obj.triangles.len()).filter_map(|i| obj.triangle(i)).collect(),
+            skipped_faces: obj.skipped_faces,
+        }
     }
 }
 
@@ -82,7 +88,13 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         .collect();
     let mut tree = Tree::default();
     build_r(&planes, polys, volume, Contents::Empty, &mut tree.nodes);
-    let stats = Stats { brushes: 0, csg_faces: faces.len(), ..Stats::default() };
+    let mut stats = Stats { brushes: 0, csg_faces: faces.len(), ..Stats::default() };
+    if mesh.skipped_faces > 0 {
+        stats.warnings.push(format!(
+            "{file}: {} faces with fewer than 3 vertices skipped (points and lines have no area)",
+            mesh.skipped_faces
+        ));
+    }
     Ok(Prepared {
         planes,
         structural: Vec::new(),
@@ -212,7 +224,7 @@ mod tests {
             triangles.push([q[0], q[1], q[2]]);
             triangles.push([q[0], q[2], q[3]]);
         }
-        Mesh { triangles }
+        Mesh { triangles, skipped_faces: 0 }
     }
 
     #[test]
@@ -225,5 +237,25 @@ mod tests {
         assert_eq!(open.len(), 1, "{:?}", level.leaves);
         assert!(open[0].mins.iter().all(|&v| v.abs() < 1e-3));
         assert_eq!(level.faces.len(), 12);
+        assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+    }
+
+    #[test]
+    fn skipped_obj_faces_are_a_warning_and_change_nothing_else() {
+        let plain = compile(
+            &Source::Mesh { mesh: room(), file: "room.obj".into() },
+            &CompileOptions::default(),
+            &NoProgress,
+        )
+        .expect("compiles");
+        let mesh = Mesh { skipped_faces: 3, ..room() };
+        let out =
+            compile(&Source::Mesh { mesh, file: "room.obj".into() }, &CompileOptions::default(), &NoProgress)
+                .expect("compiles");
+        assert_eq!(
+            out.stats.warnings,
+            ["room.obj: 3 faces with fewer than 3 vertices skipped (points and lines have no area)"]
+        );
+        assert_eq!(out.level, plain.level);
     }
 }

@@ -11,17 +11,28 @@
 //!   vis leaf's ambient sound levels (water, sky, slime, lava) become 255 when its PVS holds a
 //!   face whose texture makes that sound ([`sightline_formats::texture`]), else 0. Leaves that
 //!   are not vis leaves keep their `visofs` and ambient levels.
+//! - Ambient options ([`AmbientOptions`], `vis -noambient…`): a sound switched off is 0 in every
+//!   vis leaf; faces whose texinfo ericw-tools' qbsp flagged `noambient` in `NAME.texinfo.json`
+//!   beside the `.bsp` ([`sightline_formats::texinfo_json`], read by [`VisInput::read`]) make no
+//!   sound, as in ericw-tools' vis. A side file naming a texinfo the `.bsp` lacks belongs to
+//!   another compile and is ignored, as ericw-tools does ([`TexinfoSide::matches`]).
+//! - Far plane ([`cluster_boxes`] for [`crate::vis::farplane`]): a cluster's box holds the
+//!   `mins`/`maxs` of its BSP leaves, grown by [`LEAF_BOUNDS_SLACK`] (BSP29 stores them as
+//!   integers), and every portal winding of the cluster.
 //! - A level stores one row per cluster, in cluster order, without sharing.
 
 use std::collections::HashMap;
 use std::io;
 use std::path::{Path, PathBuf};
 
+use glam::DVec3;
 use sightline_formats::Level;
 use sightline_formats::bits;
 use sightline_formats::bsp::{self, Bsp, BspError};
+use sightline_formats::geom::Aabb;
 use sightline_formats::prt::{self, PortalFile, PrtError};
 use sightline_formats::rle;
+use sightline_formats::texinfo_json::{self, TexinfoJson, TexinfoJsonError};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::visfile::{self, VisFileError};
 use thiserror::Error;
@@ -50,14 +61,27 @@ pub enum VisdataError {
         #[source]
         source: BspError,
     },
-    /// The `.prt` beside a `.bsp` is missing.
+    /// The `.bsp`'s lumps overlap where writing visdata needs them apart
+    /// ([`bsp::check_vis_layout`]); found when reading, before any work.
+    #[error("{}: vis cannot write into this BSP", path.display())]
+    Layout {
+        /// The file.
+        path: PathBuf,
+        /// Which lumps overlap, with their byte ranges.
+        #[source]
+        source: BspError,
+    },
+    /// No `.prt` beside a `.bsp` ([`prt::beside_bsp`] lists where it is looked for).
     #[error(
-        "{} not found: vis needs the portal file your BSP compiler writes beside the .bsp (none is written when the map leaks)",
-        path.display()
+        "no portal file beside {}: looked for {}; vis needs the portal file your BSP compiler writes beside the .bsp (none is written when the map leaks)",
+        bsp.display(),
+        tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and ")
     )]
     PrtMissing {
-        /// Where it was looked for.
-        path: PathBuf,
+        /// The `.bsp`.
+        bsp: PathBuf,
+        /// The portal files looked for, in order.
+        tried: Vec<PathBuf>,
     },
     /// The portal file does not parse (the error names the file).
     #[error(transparent)]
@@ -84,6 +108,9 @@ pub enum VisdataError {
     /// The rows do not fit a `.vis` file.
     #[error(transparent)]
     VisFile(#[from] VisFileError),
+    /// The `NAME.texinfo.json` beside the `.bsp` does not parse (the error names the file).
+    #[error(transparent)]
+    TexinfoJson(#[from] TexinfoJsonError),
 }
 
 /// A Quake `.bsp`, as read for vis to write into.
@@ -95,12 +122,45 @@ pub struct BspInput {
     pub bytes: Vec<u8>,
     /// Its parse.
     pub bsp: Bsp,
+    /// ericw-tools' `NAME.texinfo.json` beside it, when there is one.
+    pub texinfo_json: Option<TexinfoSide>,
+}
+
+/// The `NAME.texinfo.json` ericw-tools' qbsp writes beside `NAME.bsp`, as read for vis.
+#[derive(Debug, Clone)]
+pub struct TexinfoSide {
+    /// The file.
+    pub path: PathBuf,
+    /// What it says.
+    pub flags: TexinfoJson,
+    /// False when it names a texinfo the `.bsp` does not have: it comes from another compile and,
+    /// as in ericw-tools' vis, its flags are not used.
+    pub matches: bool,
+}
+
+/// What makes ambient sound levels ([`ambient_levels_with`]). The default is Quake's vis: every
+/// sound on, every face counts.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AmbientOptions {
+    /// Sounds switched off (`-noambientwater`, `-noambientsky`, `-noambientslime`,
+    /// `-noambientlava`), indexed by [`sightline_formats::texture::Ambient::index`]: 0 in every
+    /// vis leaf.
+    pub off: [bool; 4],
+    /// Texinfo numbers whose faces make no sound (`_noambient`, from `NAME.texinfo.json`).
+    pub silent_texinfo: Vec<u32>,
+}
+
+impl AmbientOptions {
+    /// Every sound off (`-noambient`): every vis leaf's four levels are 0.
+    pub fn none() -> Self {
+        Self { off: [true; 4], silent_texinfo: Vec::new() }
+    }
 }
 
 /// What vis reads: a portal file, and the `.bsp` it belongs to when vis writes into one.
 #[derive(Debug, Clone)]
 pub struct VisInput {
-    /// The portal file: the `.bsp`'s sibling with the extension `.prt`, or the input itself.
+    /// The portal file: the one beside the `.bsp` ([`prt::beside_bsp`]), or the input itself.
     pub prt_path: PathBuf,
     /// Its content.
     pub prt: PortalFile,
@@ -109,27 +169,38 @@ pub struct VisInput {
 }
 
 impl VisInput {
-    /// Reads `path`: a `.bsp` (by extension, any case) and the `.prt` beside it, which must have
-    /// as many vis leaves; or a portal file alone.
+    /// Reads `path`: a `.bsp` (by extension, any case) and the `.prt` beside it
+    /// ([`prt::beside_bsp`]: `NAME.prt` for `NAME.bsp`; `NAME.vis.prt`, else `NAME.prt`, for
+    /// `NAME.vis.bsp`, the rule the runtime loader follows too), which must have as many vis
+    /// leaves; or a portal file alone. A `.bsp` whose lumps overlap where vis would write
+    /// ([`bsp::check_vis_layout`]) is refused here, before any work.
     pub fn read(path: &Path) -> Result<Self, VisdataError> {
         let is_bsp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp"));
         let bsp = if is_bsp {
             let bytes =
                 std::fs::read(path).map_err(|source| VisdataError::Read { path: path.into(), source })?;
             let bsp = bsp::read(&bytes).map_err(|source| VisdataError::Bsp { path: path.into(), source })?;
-            Some(BspInput { path: path.into(), bytes, bsp })
+            bsp::check_vis_layout(&bsp.lumps)
+                .map_err(|source| VisdataError::Layout { path: path.into(), source })?;
+            let texinfo_json = read_texinfo_side(path, &bsp)?;
+            Some(BspInput { path: path.into(), bytes, bsp, texinfo_json })
         } else {
             None
         };
-        let prt_path = if is_bsp { path.with_extension("prt") } else { path.to_path_buf() };
-        let text = match std::fs::read_to_string(&prt_path) {
-            Ok(t) => t,
-            Err(e) if is_bsp && e.kind() == io::ErrorKind::NotFound => {
-                return Err(VisdataError::PrtMissing { path: prt_path });
+        let prt_path = if is_bsp {
+            let tried = prt::beside_bsp(path);
+            match tried.iter().find(|p| p.is_file()) {
+                Some(p) => p.clone(),
+                None => return Err(VisdataError::PrtMissing { bsp: path.into(), tried }),
             }
+        } else {
+            path.to_path_buf()
+        };
+        let bytes = match std::fs::read(&prt_path) {
+            Ok(b) => b,
             Err(source) => return Err(VisdataError::Read { path: prt_path, source }),
         };
-        let prt = prt::read(&text, &prt_path.display().to_string())?;
+        let prt = prt::read_bytes(&bytes, &prt_path.display().to_string())?;
         if let Some(b) = &bsp
             && b.bsp.visleafs() != prt.num_leaves as usize
         {
@@ -142,6 +213,31 @@ impl VisInput {
         }
         Ok(Self { prt_path, prt, bsp })
     }
+
+    /// The ambient options of a run that switches off the sounds `off` (see
+    /// [`AmbientOptions::off`]), with the `noambient` texinfos of the `.bsp`'s `NAME.texinfo.json`
+    /// when it has one that matches.
+    pub fn ambient_options(&self, off: [bool; 4]) -> AmbientOptions {
+        let silent_texinfo = match self.bsp.as_ref().and_then(|b| b.texinfo_json.as_ref()) {
+            Some(side) if side.matches => side.flags.noambient.clone(),
+            _ => Vec::new(),
+        };
+        AmbientOptions { off, silent_texinfo }
+    }
+}
+
+/// Reads the `NAME.texinfo.json` beside the `.bsp` at `path` (parsed as `bsp`); `None` when there
+/// is none.
+fn read_texinfo_side(path: &Path, bsp: &Bsp) -> Result<Option<TexinfoSide>, VisdataError> {
+    let side = texinfo_json::path_beside(path);
+    let bytes = match std::fs::read(&side) {
+        Ok(b) => b,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(source) => return Err(VisdataError::Read { path: side, source }),
+    };
+    let flags = texinfo_json::read(&bytes, &side.display().to_string())?;
+    let matches = flags.max_texinfo.is_none_or(|t| (t as usize) < bsp.texinfo.len());
+    Ok(Some(TexinfoSide { path: side, flags, matches }))
 }
 
 /// Compressed PVS rows, one per vis leaf: leaves of a cluster share one row, identical rows are
@@ -194,8 +290,22 @@ impl Rows {
 }
 
 /// Ambient levels of every BSP leaf: vis leaves from their PVS (255 for each sound some face of a
-/// visible leaf makes, else 0), other leaves unchanged.
+/// visible leaf makes, else 0), other leaves unchanged. As [`ambient_levels_with`] and the
+/// default options.
 pub fn ambient_levels(bsp: &Bsp, result: &VisResult) -> Vec<[u8; 4]> {
+    ambient_levels_with(bsp, result, &AmbientOptions::default())
+}
+
+/// Ambient levels of every BSP leaf: vis leaves from their PVS (255 for each sound some face of a
+/// visible leaf makes, unless `opts` switches the sound off or silences the face's texinfo; else
+/// 0), other leaves unchanged.
+pub fn ambient_levels_with(bsp: &Bsp, result: &VisResult, opts: &AmbientOptions) -> Vec<[u8; 4]> {
+    let mut silent = vec![false; bsp.texinfo.len()];
+    for &t in &opts.silent_texinfo {
+        if let Some(s) = silent.get_mut(t as usize) {
+            *s = true;
+        }
+    }
     // Sounds present in each vis leaf's own faces.
     let own: Vec<[bool; 4]> = (0..result.num_leaves())
         .map(|j| {
@@ -208,8 +318,9 @@ pub fn ambient_levels(bsp: &Bsp, result: &VisResult) -> Vec<[u8; 4]> {
                     let sound = bsp
                         .faces
                         .get(m as usize)
+                        .filter(|f| !silent.get(f.texinfo as usize).copied().unwrap_or(false))
                         .and_then(|f| TextureKind::of(bsp.face_texture_name(f)).ambient());
-                    if let Some(sound) = sound {
+                    if let Some(sound) = sound.filter(|a| !opts.off[a.index()]) {
                         s[sound.index()] = true;
                     }
                 }
@@ -238,16 +349,59 @@ pub fn ambient_levels(bsp: &Bsp, result: &VisResult) -> Vec<[u8; 4]> {
 
 /// The `.bsp` bytes `original` (parsed as `bsp`) with the visdata of `rows`, every vis leaf's
 /// `visofs` pointing at its row ([`bsp::write_vis_rows`]), and ambient levels from
-/// [`ambient_levels`].
+/// [`ambient_levels`]. As [`write_into_bsp_with`] and the default ambient options.
 pub fn write_into_bsp(
     original: &[u8],
     bsp: &Bsp,
     result: &VisResult,
     rows: &Rows,
 ) -> Result<Vec<u8>, VisdataError> {
-    let ambient = ambient_levels(bsp, result);
-    bsp::write_vis_rows(original, bsp, &rows.data, &rows.leaf_offsets, Some(&ambient))
+    write_into_bsp_with(original, bsp, result, rows, &AmbientOptions::default())
+}
+
+/// As [`write_into_bsp`], with ambient levels from [`ambient_levels_with`] and `ambient`.
+pub fn write_into_bsp_with(
+    original: &[u8],
+    bsp: &Bsp,
+    result: &VisResult,
+    rows: &Rows,
+    ambient: &AmbientOptions,
+) -> Result<Vec<u8>, VisdataError> {
+    let levels = ambient_levels_with(bsp, result, ambient);
+    bsp::write_vis_rows(original, bsp, &rows.data, &rows.leaf_offsets, Some(&levels))
         .map_err(VisdataError::BspWrite)
+}
+
+/// How far a BSP leaf's stored `mins`/`maxs` are grown for [`cluster_boxes`]: BSP29 and BSP2-RMQ
+/// store them as integers, which compilers round (or truncate) from the real bounds.
+pub const LEAF_BOUNDS_SLACK: f64 = 1.0;
+
+/// One box per cluster of `prt` holding every point of its leaves, for
+/// [`crate::vis::farplane::cull`]: the union of its leaves' BSP bounds (vis leaf `j` is BSP leaf
+/// `j + 1`), grown by [`LEAF_BOUNDS_SLACK`], and of its portal windings. A cluster with a leaf the
+/// `.bsp` lacks, or whose stored bounds are not finite, gets an unbounded box (never culled).
+pub fn cluster_boxes(bsp: &Bsp, prt: &PortalFile) -> Vec<Aabb> {
+    let unbounded = Aabb::new(DVec3::NEG_INFINITY, DVec3::INFINITY);
+    let mut boxes = vec![Aabb::EMPTY; prt.num_clusters as usize];
+    for (j, &c) in prt.leaf_clusters.iter().enumerate() {
+        let Some(slot) = boxes.get_mut(c as usize) else { continue };
+        let leaf_box = bsp
+            .leaves
+            .get(j + 1)
+            .map(|l| Aabb::new(DVec3::from(l.mins.map(f64::from)), DVec3::from(l.maxs.map(f64::from))))
+            .filter(|b| b.mins.is_finite() && b.maxs.is_finite())
+            .map_or(unbounded, |b| b.expanded(LEAF_BOUNDS_SLACK));
+        *slot = slot.union(&leaf_box);
+    }
+    for p in &prt.portals {
+        let w = p.winding.bounds();
+        for &c in &p.leaves {
+            if let Some(slot) = boxes.get_mut(c as usize) {
+                *slot = slot.union(&w);
+            }
+        }
+    }
+    boxes
 }
 
 /// Store vis rows in `level`: one Quake-RLE row per cluster (see [`Level`]'s conventions).
@@ -311,5 +465,109 @@ mod tests {
         let mut level = Level::default();
         store_pvs(&mut level, &result);
         assert_eq!((level.pvs_offsets.as_slice(), level.pvs_data.as_slice()), (&[0, 1][..], &[3u8, 3][..]));
+    }
+
+    /// A fresh temp dir holding a copy of the shared map `name` (`.bsp`, `.prt`, and its
+    /// `.texinfo.json` when `with_side`) as `m.*`; `None` when the shared maps are absent.
+    fn copy_shared(name: &str, tag: &str, with_side: bool) -> Option<(PathBuf, PathBuf)> {
+        let src = sightline_formats::shared_maps::dir()?.join(name);
+        if !src.is_file() {
+            return None;
+        }
+        let dir = std::env::temp_dir().join(format!("sightline-visdata-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        std::fs::copy(&src, dir.join("m.bsp")).expect("copy");
+        std::fs::copy(src.with_extension("prt"), dir.join("m.prt")).expect("copy");
+        if with_side {
+            std::fs::copy(src.with_extension("texinfo.json"), dir.join("m.texinfo.json")).expect("copy");
+        }
+        Some((dir.join("m.bsp"), src))
+    }
+
+    const NOAMBIENT_MAP: &str = "ericw-testmaps/q1_vis_noambient_func_group.standin.bsp";
+
+    #[test]
+    fn noambient_texinfos_and_switched_off_sounds_shape_ambient_levels_as_ericw_vis() {
+        let Some((bsp_path, src)) = copy_shared(NOAMBIENT_MAP, "ambient", true) else {
+            eprintln!("note: {NOAMBIENT_MAP} not found; skipped");
+            return;
+        };
+        let input = VisInput::read(&bsp_path).expect("reads with its side file");
+        let b = input.bsp.as_ref().expect("a .bsp");
+        let side = b.texinfo_json.as_ref().expect("the side file is read");
+        assert!(side.matches && side.flags.noambient == [4], "{side:?}");
+        let result =
+            vis::run(&input.prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {}).expect("vis");
+
+        let ericw =
+            bsp::read(&std::fs::read(src.with_extension("ericw.bsp")).expect("ericw output")).expect("bsp");
+        let reference: Vec<[u8; 4]> = ericw.leaves.iter().map(|l| l.ambient).collect();
+        let levels = ambient_levels_with(&b.bsp, &result, &input.ambient_options([false; 4]));
+        assert_eq!(levels, reference, "the func_group's sky is silent, as in ericw-tools' vis");
+        let plain = ambient_levels(&b.bsp, &result);
+        assert!(
+            plain.iter().zip(&levels).any(|(p, l)| p[1] == 255 && l[1] == 0),
+            "without the flags it sounds"
+        );
+
+        let none = ambient_levels_with(&b.bsp, &result, &AmbientOptions::none());
+        assert!(none[1..=result.num_leaves()].iter().all(|a| *a == [0; 4]));
+        let no_sky = ambient_levels_with(
+            &b.bsp,
+            &result,
+            &AmbientOptions { off: [false, true, false, false], ..Default::default() },
+        );
+        assert!(no_sky.iter().all(|a| a[1] == 0));
+    }
+
+    #[test]
+    fn a_side_file_from_another_compile_is_ignored_and_a_broken_one_is_an_error() {
+        let Some((bsp_path, _)) = copy_shared(NOAMBIENT_MAP, "side", false) else { return };
+        let side = bsp_path.with_extension("texinfo.json");
+        let input = VisInput::read(&bsp_path).expect("reads without a side file");
+        assert!(input.bsp.as_ref().expect("bsp").texinfo_json.is_none());
+
+        std::fs::write(&side, r#"{"4": {"noambient": true}, "100000": {}}"#).expect("write");
+        let input = VisInput::read(&bsp_path).expect("reads");
+        let read = input.bsp.as_ref().and_then(|b| b.texinfo_json.as_ref()).expect("side file");
+        assert!(!read.matches, "texinfo 100000 is not in this BSP");
+        assert!(input.ambient_options([false; 4]).silent_texinfo.is_empty(), "ignored, as ericw-tools does");
+
+        std::fs::write(&side, "{\"4\": {\"noambient\": \"yes\"}}").expect("write");
+        let err = VisInput::read(&bsp_path).expect_err("a broken side file");
+        assert!(matches!(err, VisdataError::TexinfoJson(_)));
+        assert!(err.to_string().contains("m.texinfo.json"), "{err}");
+    }
+
+    #[test]
+    fn cluster_boxes_hold_leaf_bounds_and_portals_and_unknown_leaves_are_unbounded() {
+        let Some((bsp_path, _)) = copy_shared("ericw/dm1.bsp", "boxes", false) else { return };
+        let mut input = VisInput::read(&bsp_path).expect("dm1");
+        let b = &input.bsp.as_ref().expect("bsp").bsp;
+        let boxes = cluster_boxes(b, &input.prt);
+        assert_eq!(boxes.len(), input.prt.num_clusters as usize);
+        for (j, &c) in input.prt.leaf_clusters.iter().enumerate() {
+            let l = &b.leaves[j + 1];
+            let (mins, maxs) = (DVec3::from(l.mins.map(f64::from)), DVec3::from(l.maxs.map(f64::from)));
+            let bx = &boxes[c as usize];
+            assert!(
+                bx.contains_point(mins - LEAF_BOUNDS_SLACK, 0.0)
+                    && bx.contains_point(maxs + LEAF_BOUNDS_SLACK, 0.0)
+            );
+        }
+        for p in &input.prt.portals {
+            for &c in &p.leaves {
+                assert!(p.winding.points.iter().all(|&q| boxes[c as usize].contains_point(q, 0.0)));
+            }
+        }
+        // A leaf the BSP lacks (or with NaN bounds) makes its cluster's box unbounded.
+        let bsp = &mut input.bsp.as_mut().expect("bsp").bsp;
+        bsp.leaves[1].mins[0] = f32::NAN;
+        let c = input.prt.leaf_clusters[0] as usize;
+        let boxes = cluster_boxes(bsp, &input.prt);
+        assert!(!boxes[c].mins.is_finite() && boxes[c].maxs.x == f64::INFINITY);
+        bsp.leaves.truncate(1);
+        assert!(cluster_boxes(bsp, &input.prt).iter().all(|bx| bx.mins.x == f64::NEG_INFINITY));
     }
 }

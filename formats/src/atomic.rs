@@ -45,6 +45,39 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     Ok(())
 }
 
+/// Checks, without writing `path`, that [`write_file_atomic`] could write it: `path` names a file
+/// (not an existing folder) in a folder that exists and takes new files. It creates the temporary
+/// file a write would and removes it at once. Commands that work long before writing call it first,
+/// so a bad output path fails at once instead of after the work.
+pub fn check_writable(path: &Path) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().ok_or_else(|| {
+        io::Error::new(io::ErrorKind::InvalidInput, format!("{} names no file", path.display()))
+    })?;
+    match fs::metadata(dir) {
+        Ok(meta) if meta.is_dir() => {}
+        Ok(_) => {
+            let msg = format!("{} is not a folder", dir.display());
+            return Err(io::Error::new(io::ErrorKind::NotADirectory, msg));
+        }
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            let msg = format!("the folder {} does not exist", dir.display());
+            return Err(io::Error::new(io::ErrorKind::NotFound, msg));
+        }
+        Err(e) => return Err(e),
+    }
+    if fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+        let msg = format!("{} is a folder", path.display());
+        return Err(io::Error::new(io::ErrorKind::IsADirectory, msg));
+    }
+    let (tmp, file) = create_temporary(dir, name)?;
+    drop(file);
+    fs::remove_file(&tmp)
+}
+
 /// Creates a fresh temporary file for `name` in `dir`; never opens an existing file.
 fn create_temporary(dir: &Path, name: &std::ffi::OsStr) -> io::Result<(PathBuf, File)> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -102,6 +135,24 @@ mod tests {
         assert!(write_file_atomic(&dir.join("missing/x"), b"x").is_err());
         assert!(write_file_atomic(&dir, b"x").is_err(), "a folder is not replaced by a file");
         assert_eq!(names(&dir), [std::ffi::OsString::from("level.slvl")], "no temporary left");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn writability_is_checked_without_writing() {
+        let dir = temp_dir("check");
+        check_writable(&dir.join("level.slvl")).unwrap();
+        assert!(names(&dir).is_empty(), "the probe leaves nothing behind");
+        let e = check_writable(&dir.join("missing/level.slvl")).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::NotFound);
+        assert!(e.to_string().contains("missing"), "{e}");
+        assert_eq!(check_writable(&dir).unwrap_err().kind(), io::ErrorKind::IsADirectory);
+        write_file_atomic(&dir.join("file"), b"x").unwrap();
+        assert_eq!(
+            check_writable(&dir.join("file/level.slvl")).unwrap_err().kind(),
+            io::ErrorKind::NotADirectory
+        );
+        assert_eq!(names(&dir), [std::ffi::OsString::from("file")]);
         fs::remove_dir_all(&dir).unwrap();
     }
 

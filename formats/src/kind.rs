@@ -7,7 +7,7 @@
 //!   case-insensitive), whatever the bytes are.
 //! - Otherwise the first bytes do: the `.slvl` magic `SLVL`; a BSP version (`29` little-endian,
 //!   `BSP2`, `2PSB`); `PRT1` or `PRT2` (which also starts `PRT1-AM`). Failing those, the first line
-//!   of the first 4096 bytes that is neither blank nor a `//` comment, when they are UTF-8: a `{`
+//!   of the first 4096 bytes (read lossily as UTF-8) that is neither blank nor a `//` comment: a `{`
 //!   starts a `.map`, an `.obj` keyword (`v`, `vt`, `vn`, `f`, `o`, `g`, `s`, `mtllib`, `usemtl`,
 //!   or a `#` comment) an `.obj`.
 
@@ -68,7 +68,9 @@ impl FileKind {
         if bytes.starts_with(b"PRT1") || bytes.starts_with(b"PRT2") {
             return Some(Self::Prt);
         }
-        let text = std::str::from_utf8(bytes.get(..bytes.len().min(TEXT_PREFIX))?).ok()?;
+        // Lossily: a prefix may end inside a character, and a `.map` may hold bytes that are not
+        // UTF-8 (see `map::decode`); only the first line that says something is looked at.
+        let text = String::from_utf8_lossy(bytes.get(..bytes.len().min(TEXT_PREFIX))?);
         let first = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with("//"))?;
         if first.starts_with('{') {
             return Some(Self::Map);
@@ -102,5 +104,7 @@ mod tests {
         assert_eq!(kind_of(none, b"hello world\n"), None);
         assert_eq!(kind_of(none, b"ab"), None);
         assert_eq!(kind_of(none, b"\xff\xfe\xfd\xfc{"), None);
+        // Text that is not UTF-8 (a `.map` with Quake's high-bit characters) is still looked at.
+        assert_eq!(kind_of(none, b"{\n\"message\" \"\xe9\x80\"\n}\n"), Some(FileKind::Map));
     }
 }

@@ -3,8 +3,9 @@
 //! on-disk format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, `.slvl` and the
 //! `.vis` file), with `kind` telling them apart and `atomic` writing them.
 //!
-//! The `.map` parser (`map`) and the `.obj` loader (`obj`) are behind the features of the same
-//! names; telling those files apart (`kind`) needs neither.
+//! The `.map` parser (`map`), the `.obj` loader (`obj`) and the reader of ericw-tools'
+//! `NAME.texinfo.json` (`texinfo_json`) are behind the features of the same names; telling those
+//! files apart (`kind`) needs none of them.
 //!
 //! Readers never panic on hostile input and never allocate more than the input can justify: every
 //! count read from a file is checked against the bytes that remain before anything is allocated.
@@ -29,6 +30,8 @@ pub mod shared_maps;
 pub mod slvl;
 #[cfg(all(test, any(feature = "map", feature = "obj")))]
 mod test_support;
+#[cfg(feature = "texinfo_json")]
+pub mod texinfo_json;
 pub mod texture;
 mod tree_check;
 pub mod visfile;

@@ -8,6 +8,16 @@
 //! on its own, and rejects anything a compiler could not use, with `file:line:col` and the entity,
 //! brush and side (0-based, file order) in the [`MapError`]. Parsing never panics and allocates only
 //! what the text justifies (every entity, brush and side consumes tokens of the text).
+//!
+//! # Bytes and text
+//! Quake's tools read a `.map` as bytes: any byte `>= 0x80` may appear, typically in entity
+//! strings (`message` keys in Quake's coloured "gold" characters). [`decode`] turns a file's bytes
+//! into text without ever failing: bytes that are valid UTF-8 are that text (so every UTF-8 map
+//! parses exactly as before); any other file is read as Latin-1, each byte becoming the character
+//! with the same code (`0xE9` → `U+00E9`). Every byte survives: a string of the map becomes a Rust
+//! `String` (UTF-8, so a byte `>= 0x80` takes two bytes there, for example in the entity text of
+//! a compiled level), and [`encode_latin1`] gives the file's bytes back. [`parse_bytes`] is
+//! [`decode`] then [`parse`], what every reader of `.map` files should call.
 
 use glam::DVec3;
 
@@ -235,6 +245,29 @@ pub struct MapError {
     pub brush: Option<BrushRef>,
     /// What went wrong.
     pub kind: MapErrorKind,
+}
+
+/// The text of `.map` bytes: the bytes themselves when they are valid UTF-8, else each byte as
+/// the character of the same code (Latin-1), so that decoding never fails and loses nothing (see
+/// the module docs).
+pub fn decode(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => std::borrow::Cow::Borrowed(text),
+        Err(_) => std::borrow::Cow::Owned(bytes.iter().map(|&b| char::from(b)).collect()),
+    }
+}
+
+/// The bytes of text produced by [`decode`] from a file that is not UTF-8: each character below
+/// `U+0100` as its byte; `None` when the text holds a character above `U+00FF`, which no
+/// Latin-1-decoded file does.
+pub fn encode_latin1(text: &str) -> Option<Vec<u8>> {
+    text.chars().map(|c| u8::try_from(u32::from(c)).ok()).collect()
+}
+
+/// Parse the bytes of a `.map` file: [`decode`], then [`parse`]. `file` is only used in error
+/// messages.
+pub fn parse_bytes(bytes: &[u8], file: &str) -> Result<MapFile, MapError> {
+    parse(&decode(bytes), file)
 }
 
 /// Parse `.map` text. `file` is only used in error messages.
@@ -655,6 +688,32 @@ mod tests {
     }
 
     #[test]
+    fn high_bit_bytes_in_strings_are_kept_as_latin1_characters() {
+        // Quake's "gold" characters: bytes 0x80..=0xFF inside a quoted value (not UTF-8).
+        let mut bytes = b"{\n\"classname\" \"worldspawn\"\n\"message\" \"".to_vec();
+        let gold: Vec<u8> = (0x80..=0xFFu8).collect();
+        bytes.extend_from_slice(&gold);
+        bytes.extend_from_slice(b"\"\n");
+        bytes.extend_from_slice(BOX.as_bytes());
+        bytes.extend_from_slice(b"}\n");
+        assert!(std::str::from_utf8(&bytes).is_err());
+        let map = parse_bytes(&bytes, "gold.map").expect("high-bit bytes are accepted");
+        let message = map.entities[0].get("message").expect("message key");
+        assert_eq!(message.chars().count(), 128);
+        assert_eq!(encode_latin1(message), Some(gold));
+        assert_eq!(map.entities[0].brushes[0].sides.len(), 6);
+        // Valid UTF-8 is read as UTF-8, unchanged.
+        let utf8 = world(BOX).replace("worldspawn\"", "worldspawn\"\n\"message\" \"caf\u{e9}\"");
+        assert!(matches!(decode(utf8.as_bytes()), std::borrow::Cow::Borrowed(_)));
+        let map = parse_bytes(utf8.as_bytes(), "utf8.map").expect("UTF-8 map");
+        assert_eq!(map.entities[0].get("message"), Some("caf\u{e9}"));
+        // Errors after high-bit bytes still name the line and the column in characters.
+        let bad = b"{\n\"classname\" \"worldspawn\"\n\"message\" \"\xe9\xe9\" oops\n}\n";
+        let e = parse_bytes(bad, "bad.map").expect_err("stray word");
+        assert_eq!((e.line, e.col), (3, 16));
+    }
+
+    #[test]
     fn every_truncation_of_a_valid_map_is_handled() {
         let text = world(BOX) + "{ \"classname\" \"info_player_start\" \"origin\" \"32 32 24\" }\n";
         let world_end = world(BOX).len() - 1;
@@ -683,7 +742,7 @@ mod tests {
                 let text = world(BOX);
                 let mut bytes = text.into_bytes();
                 crate::test_support::apply_edits(&mut bytes, &edits);
-                let text = String::from_utf8_lossy(&bytes);
+                let text = decode(&bytes);
                 match parse(&text, "h.map") {
                     Ok(map) => {
                         prop_assert_eq!(map.entities[0].classname(), "worldspawn");

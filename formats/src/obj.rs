@@ -3,7 +3,11 @@
 //! Every object and group of the file is merged into one [`TriMesh`]; polygons are triangulated as
 //! fans by `tobj` (`triangulate`), and vertices are indexed once per distinct `v/vt/vn` triple
 //! (`single_index`), so a position shared by faces with different normals may appear more than
-//! once. Materials (`mtllib`) are never loaded. Points and lines are ignored.
+//! once. Materials (`mtllib`) are never loaded. Points and lines are ignored: `p` and `l`
+//! elements, and faces (`f`) of one or two vertices, which enclose no area. Such faces are not
+//! errors (exporters write them for loose vertices and edges); they are skipped and counted in
+//! [`TriMesh::skipped_faces`], which the compiler reports as a warning. A face of no vertex at all
+//! is an error naming `file:line`.
 //!
 //! Coordinates are kept as written (no axis swap): the caller decides what "up" is. Every
 //! coordinate must be finite with `|x| <=` [`WORLD_LIMIT`], and every index must be in range.
@@ -25,6 +29,8 @@ pub struct TriMesh {
     /// Triangles as indices into `positions`, in file winding order (counter-clockwise seen from
     /// the front for conventional `.obj` files).
     pub triangles: Vec<[u32; 3]>,
+    /// Faces (`f` lines) of one or two vertices, skipped: they have no area.
+    pub skipped_faces: usize,
 }
 
 impl TriMesh {
@@ -123,14 +129,14 @@ pub fn load(path: &Path) -> Result<TriMesh, ObjError> {
 
 /// Load `.obj` text from memory; `name` is used in errors.
 pub fn load_from_bytes(bytes: &[u8], name: &str) -> Result<TriMesh, ObjError> {
-    check_face_indices(bytes, name)?;
+    let skipped_faces = check_face_indices(bytes, name)?;
     let models = match run_tobj(bytes) {
         Ok(models) => models,
         Err(source) => {
             return Err(ObjError::Parse { path: name.to_string(), line: failing_line(bytes), source });
         }
     };
-    let mut mesh = TriMesh::default();
+    let mut mesh = TriMesh { skipped_faces, ..TriMesh::default() };
     for model in &models {
         append(&mut mesh, model, name)?;
     }
@@ -138,7 +144,10 @@ pub fn load_from_bytes(bytes: &[u8], name: &str) -> Result<TriMesh, ObjError> {
 }
 
 fn run_tobj(bytes: &[u8]) -> Result<Vec<tobj::Model>, tobj::LoadError> {
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    // Without `ignore_points` and `ignore_lines`, `tobj` would turn one- and two-vertex faces into
+    // triangles of no area.
+    let options =
+        tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let mut reader = std::io::Cursor::new(bytes);
     tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default())).map(|(models, _)| models)
 }
@@ -169,14 +178,19 @@ fn failing_line(bytes: &[u8]) -> usize {
 }
 
 /// Reject face indices larger in magnitude than the number of lines: such a file cannot define
-/// that many vertices, and huge indices would overflow `tobj`'s arithmetic.
-fn check_face_indices(bytes: &[u8], name: &str) -> Result<(), ObjError> {
+/// that many vertices, and huge indices would overflow `tobj`'s arithmetic. Returns the number of
+/// faces of one or two vertices (which `tobj` is told to skip).
+fn check_face_indices(bytes: &[u8], name: &str) -> Result<usize, ObjError> {
     let text = String::from_utf8_lossy(bytes);
     let limit = text.lines().count();
+    let mut skipped = 0;
     for (l, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         if words.next() != Some("f") {
             continue;
+        }
+        if (1..=2).contains(&words.clone().count()) {
+            skipped += 1;
         }
         for word in words {
             for part in word.split('/').filter(|p| !p.is_empty()) {
@@ -197,7 +211,7 @@ fn check_face_indices(bytes: &[u8], name: &str) -> Result<(), ObjError> {
             }
         }
     }
-    Ok(())
+    Ok(skipped)
 }
 
 /// Append one `tobj` model to `mesh`, validating it.
@@ -289,6 +303,21 @@ mod tests {
         let e = load(Path::new("/nonexistent/x.obj")).unwrap_err();
         assert_eq!(e.to_string(), "/nonexistent/x.obj");
         assert!(std::error::Error::source(&e).is_some(), "the IO error is the source");
+    }
+
+    #[test]
+    fn faces_of_one_or_two_vertices_are_skipped_and_counted() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1\nf 1 2\nf 1 2 3\nf 2 3\nl 1 2\np 1\n";
+        let mesh = load_from_bytes(text.as_bytes(), "s.obj").unwrap();
+        assert_eq!(mesh.triangles, vec![[0, 1, 2]], "only the real triangle is kept");
+        assert_eq!(mesh.skipped_faces, 3);
+        assert_eq!(load_from_bytes(QUAD.as_bytes(), "q.obj").unwrap().skipped_faces, 0);
+        // Only degenerate faces: an empty mesh, every face counted.
+        let mesh = load_from_bytes(b"v 0 0 0\nv 1 0 0\nf 1 2\nf 2\n", "e.obj").unwrap();
+        assert_eq!((mesh.triangles.len(), mesh.skipped_faces), (0, 2));
+        // A face without any vertex is an error at its line.
+        let e = load_from_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n", "z.obj").unwrap_err();
+        assert!(matches!(e, ObjError::Parse { line: 4, .. }), "{e:?}");
     }
 
     #[test]

@@ -14,9 +14,18 @@
 //! [`MAX_POINTS`] points, non-finite coordinates, leaves missing from (or listed twice in) the
 //! PRT2 cluster lists, and trailing tokens. It never allocates from a header count before checking
 //! the count against the text that remains. The writer prints floats in Rust's shortest
-//! round-trip form, so `read(write(f)) == f`.
+//! round-trip form, so `read(write(f)) == f`. Line breaks may be `\n` or `\r\n` (any whitespace
+//! separates tokens), so a portal file written on Windows reads the same.
+//!
+//! # The portal file of a `.bsp`
+//! A BSP compiler writes `NAME.prt` beside `NAME.bsp`; tools that vis a copy often name it
+//! `NAME.vis.bsp` and leave the portal file as it was. [`beside_bsp`] owns the rule every reader
+//! follows (vis, the runtime loader): strip `.bsp` (any case) from the file name, try `STEM.prt`,
+//! then, when the stem ends in `.vis` (any case), `STEM-without-.vis.prt`. [`find_beside_bsp`]
+//! returns the first of those that is a file.
 
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
@@ -48,6 +57,41 @@ impl PrtFormat {
             Self::Prt1Am => "PRT1-AM",
         }
     }
+}
+
+impl PrtFormat {
+    /// The variant whose header is the first token of `text` (leading whitespace skipped), without
+    /// reading further; `None` when it is none of them.
+    pub fn of_text(text: &str) -> Option<Self> {
+        let head = text.split_whitespace().next()?;
+        [Self::Prt1, Self::Prt2, Self::Prt1Am].into_iter().find(|f| f.header() == head)
+    }
+}
+
+/// The portal files that may belong to the BSP at `bsp`, in the order to try them (see the module
+/// docs): `NAME.prt` for `NAME.bsp`; `NAME.vis.prt`, then `NAME.prt`, for `NAME.vis.bsp`. Empty
+/// when the file name does not end in `.bsp` (any case).
+pub fn beside_bsp(bsp: &Path) -> Vec<PathBuf> {
+    let Some(name) = bsp.file_name().and_then(|n| n.to_str()) else { return Vec::new() };
+    let Some(stem) = strip_suffix_ignore_case(name, ".bsp").filter(|s| !s.is_empty()) else {
+        return Vec::new();
+    };
+    let mut out = vec![bsp.with_file_name(format!("{stem}.prt"))];
+    if let Some(base) = strip_suffix_ignore_case(stem, ".vis").filter(|s| !s.is_empty()) {
+        out.push(bsp.with_file_name(format!("{base}.prt")));
+    }
+    out
+}
+
+/// The first of [`beside_bsp`]'s candidates that is a file.
+pub fn find_beside_bsp(bsp: &Path) -> Option<PathBuf> {
+    beside_bsp(bsp).into_iter().find(|p| p.is_file())
+}
+
+fn strip_suffix_ignore_case<'a>(s: &'a str, suffix: &str) -> Option<&'a str> {
+    let cut = s.len().checked_sub(suffix.len())?;
+    let (head, tail) = (s.get(..cut)?, s.get(cut..)?);
+    tail.eq_ignore_ascii_case(suffix).then_some(head)
 }
 
 /// One portal line.
@@ -227,6 +271,13 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
         return Err(r.at(&tok, PrtErrorKind::Trailing(shown(tok.text))));
     }
     Ok(PortalFile { format, num_leaves, num_clusters, portals, leaf_clusters })
+}
+
+/// Read the bytes of a portal file: [`read`] of the bytes taken as UTF-8, lossily. Every token of a
+/// valid portal file is ASCII, so a byte that is not UTF-8 is never accepted: it shows as `U+FFFD`
+/// in the error that names its line and column. `file` is only used in error messages.
+pub fn read_bytes(bytes: &[u8], file: &str) -> Result<PortalFile, PrtError> {
+    read(&String::from_utf8_lossy(bytes), file)
 }
 
 /// Write a portal file in its own variant; floats in shortest round-trip form.
@@ -484,6 +535,48 @@ mod tests {
         assert_eq!(f.format, PrtFormat::Prt1Am);
         assert_eq!(f.leaf_clusters, vec![0, 1, 1]);
         assert_eq!(f.portals[0].winding.points[1].x, 2.84e-14);
+    }
+
+    #[test]
+    fn crlf_reads_like_lf() {
+        let crlf = SMALL.replace('\n', "\r\n");
+        assert_eq!(read(&crlf, "w.prt"), read(SMALL, "w.prt"));
+        assert_eq!(PrtFormat::of_text(&crlf), Some(PrtFormat::Prt2));
+        assert_eq!(PrtFormat::of_text("\r\n  PRT1\r\n1\r\n0\r\n"), Some(PrtFormat::Prt1));
+        assert_eq!(PrtFormat::of_text("PRT1-AM\r\n"), Some(PrtFormat::Prt1Am));
+        assert_eq!(PrtFormat::of_text("PRT3\n"), None);
+        assert_eq!(PrtFormat::of_text(""), None);
+    }
+
+    #[test]
+    fn bytes_that_are_not_utf8_are_located_errors() {
+        assert_eq!(read_bytes(SMALL.as_bytes(), "b.prt"), read(SMALL, "b.prt"));
+        let e = read_bytes(b"PRT1\n2\n1\n3 0 1 (0 0 0) (1 \xff 0) (0 1 0)\n", "b.prt").unwrap_err();
+        assert_eq!((e.line, e.col), (4, 18));
+        assert!(matches!(e.kind, PrtErrorKind::NotANumber { .. }), "{e}");
+        let e = read_bytes(b"SLVL\x01\0\0\0\xff", "level.slvl").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::BadHeader(_)), "{e}");
+    }
+
+    #[test]
+    fn the_portal_file_beside_a_bsp() {
+        let dir = Path::new("maps");
+        assert_eq!(beside_bsp(&dir.join("e1m1.bsp")), [dir.join("e1m1.prt")]);
+        assert_eq!(beside_bsp(&dir.join("e1m1.vis.bsp")), [dir.join("e1m1.vis.prt"), dir.join("e1m1.prt")]);
+        assert_eq!(beside_bsp(Path::new("E1M1.VIS.BSP")), [PathBuf::from("E1M1.VIS.prt"), "E1M1.prt".into()]);
+        assert_eq!(beside_bsp(Path::new("a.b.bsp")), [PathBuf::from("a.b.prt")]);
+        assert!(beside_bsp(Path::new("e1m1.slvl")).is_empty());
+        assert!(beside_bsp(Path::new(".bsp")).is_empty());
+        assert_eq!(beside_bsp(Path::new(".vis.bsp")), [PathBuf::from(".vis.prt")]);
+        let tmp = std::env::temp_dir().join(format!("sightline-prt-beside-{}", std::process::id()));
+        std::fs::create_dir_all(&tmp).expect("temp dir");
+        let bsp = tmp.join("m.vis.bsp");
+        assert_eq!(find_beside_bsp(&bsp), None);
+        std::fs::write(tmp.join("m.prt"), SMALL).expect("write");
+        assert_eq!(find_beside_bsp(&bsp), Some(tmp.join("m.prt")));
+        std::fs::write(tmp.join("m.vis.prt"), SMALL).expect("write");
+        assert_eq!(find_beside_bsp(&bsp), Some(tmp.join("m.vis.prt")));
+        std::fs::remove_dir_all(&tmp).expect("clean up");
     }
 
     fn err(text: &str) -> PrtError {

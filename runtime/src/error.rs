@@ -17,10 +17,10 @@ use thiserror::Error;
 pub enum LoadError {
     /// The level breaks a rule of [`sightline_formats::slvl::validate`] (an index out of range, a
     /// non-finite value, a cycle, a PVS row that does not decode, ...).
-    #[error("invalid level: {0}")]
+    #[error("invalid level")]
     Invalid(#[source] SlvlError),
     /// The level has no model 0 (the world).
-    #[error("level has no world model")]
+    #[error("the models lump is empty: the level has no world model (model 0)")]
     NoWorldModel,
     /// A plane's normal is not unit length.
     #[error("plane {index} is not a finite unit-normal plane")]
@@ -67,7 +67,7 @@ pub enum LoadError {
         max: usize,
     },
     /// The level's GVS cells do not fit its faces.
-    #[error("GVS data: {0}")]
+    #[error("GVS data")]
     Gvs(#[from] GvsError),
     /// The `.slvl` file could not be read.
     #[error(transparent)]
@@ -81,6 +81,16 @@ pub enum LoadError {
     /// The `.prt` file does not fit the level.
     #[error("portal file: {0}")]
     Prt(String),
+    /// The file `path` holds what failed to load (the cause is the source); from
+    /// [`crate::load::load_path`], which names the file of every error this way (but for `Io`).
+    #[error("{path}")]
+    File {
+        /// The file.
+        path: String,
+        /// What is wrong with it.
+        #[source]
+        source: Box<LoadError>,
+    },
     /// Reading the file failed.
     #[error("{path}")]
     Io {

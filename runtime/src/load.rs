@@ -34,29 +34,40 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
 }
 
-/// Load a file. For a `.bsp`, a portal file beside it (`NAME.prt` for `NAME.bsp` or
-/// `NAME.vis.bsp`) is used when present and in PRT1 form.
+/// Load a file. For a `.bsp`, the portal file beside it ([`sibling_prt`], the rule `vis` follows
+/// too) is used when present and in PRT1 form (`\n` or `\r\n` line breaks alike). Every error
+/// names the file: [`LoadError::Io`] by itself, the others inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
     let io = |source| LoadError::Io { path: path.display().to_string(), source };
     let bytes = std::fs::read(path).map_err(io)?;
+    let in_file = |e: LoadError| match e {
+        LoadError::Io { .. } => e,
+        other => LoadError::File { path: path.display().to_string(), source: Box::new(other) },
+    };
     if bytes.starts_with(&slvl::MAGIC) {
-        return load_slvl(&bytes);
+        return load_slvl(&bytes).map_err(in_file);
     }
     if let Some(prt_path) = sibling_prt(path)
-        && let Ok(text) = std::fs::read_to_string(&prt_path)
-        && text.trim_start().starts_with("PRT1\n")
+        && let Ok(prt_bytes) = std::fs::read(&prt_path)
+        && let text = String::from_utf8_lossy(&prt_bytes)
+        && PrtFormat::of_text(&text) == Some(PrtFormat::Prt1)
     {
-        return load_bsp_with_prt(&bytes, &text, &prt_path.display().to_string());
+        let prt_name = prt_path.display().to_string();
+        // A portal file that does not fit the level is named as well (syntax errors name it).
+        let in_prt = |e: LoadError| match e {
+            LoadError::Prt(_) => LoadError::File { path: prt_name.clone(), source: Box::new(e) },
+            other => other,
+        };
+        return load_bsp_with_prt(&bytes, &text, &prt_name).map_err(in_prt).map_err(in_file);
     }
-    load_bsp(&bytes)
+    load_bsp(&bytes).map_err(in_file)
 }
 
-/// `NAME.prt` beside `NAME.bsp` or `NAME.vis.bsp`.
+/// The portal file beside a `.bsp` that exists, by the one rule every reader follows
+/// ([`sightline_formats::prt::find_beside_bsp`]): `NAME.prt` for `NAME.bsp`; `NAME.vis.prt`, else
+/// `NAME.prt`, for `NAME.vis.bsp`. `None` when there is none (or the name does not end in `.bsp`).
 pub fn sibling_prt(path: &Path) -> Option<std::path::PathBuf> {
-    let name = path.file_name()?.to_str()?;
-    let stem = name.strip_suffix(".bsp")?;
-    let stem = stem.strip_suffix(".vis").unwrap_or(stem);
-    Some(path.with_file_name(format!("{stem}.prt")))
+    prt::find_beside_bsp(path)
 }
 
 /// Append the portals of a PRT1 file to a level made by [`bsp::to_level`]: vis leaf `i` of the

@@ -445,3 +445,47 @@ fn world_new_runs_the_shared_level_rules_then_its_own() {
     assert_eq!(slvl::validate(&level), Ok(()), "a shared subtree is acyclic");
     assert!(matches!(World::new(&level), Err(LoadError::NotATree { .. } | LoadError::SharedLeaf { .. })));
 }
+
+/// An error and its causes, joined as the CLI prints them (anyhow's `{:#}`).
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
+}
+
+#[test]
+fn errors_print_each_cause_once_and_name_the_lump() {
+    use crate::LoadError;
+    let mut level = pillars(9);
+    level.faces[0].texture = 99;
+    let e = World::new(&level).expect_err("bad texture index");
+    let cause = std::error::Error::source(&e).expect("the slvl rule is the source").to_string();
+    assert_eq!(error_chain(&e), format!("invalid level: {cause}"));
+    assert_eq!(error_chain(&e).matches(&cause).count(), 1);
+    let mut level = pillars(9);
+    level.models.clear();
+    let e = World::new(&level).expect_err("no models");
+    assert!(matches!(e, LoadError::NoWorldModel));
+    assert!(e.to_string().contains("models lump is empty"), "{e}");
+    // `load_path` names the file once, whatever failed.
+    let dir = std::env::temp_dir().join(format!("sightline-runtime-errors-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("modelless.slvl");
+    let bytes = sightline_formats::slvl::write(&level, &sightline_formats::slvl::WriteOptions::default());
+    std::fs::write(&path, bytes).expect("write");
+    let e = crate::load::load_path(&path).expect_err("no models");
+    let name = path.display().to_string();
+    assert_eq!(
+        error_chain(&e),
+        format!("{name}: the models lump is empty: the level has no world model (model 0)")
+    );
+    let missing = dir.join("missing.bsp");
+    let e = crate::load::load_path(&missing).expect_err("missing");
+    assert_eq!(error_chain(&e).matches(&missing.display().to_string()).count(), 1, "{}", error_chain(&e));
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}

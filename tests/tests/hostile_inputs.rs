@@ -209,7 +209,11 @@ fn bsp_reader_survives_hostile_files() {
                 // ...and convert to a level that passes `.slvl` validation.
                 assert_eq!(slvl::validate(&bsp::to_level(&b)), Ok(()));
                 let visofs: Vec<i32> = b.leaves.iter().map(|l| l.visofs).collect();
-                let _ = bsp::write_with_visdata(data, &b.visdata, &visofs, None);
+                let written = bsp::write_with_visdata(data, &b.visdata, &visofs, None);
+                // The layout check vis runs before any work refuses what the writer cannot do.
+                if bsp::check_vis_layout(&b.lumps).is_err() {
+                    assert!(matches!(written, Err(bsp::BspError::Overlap { .. })), "{written:?}");
+                }
                 true
             }
             Err(_) => false,
@@ -406,4 +410,190 @@ fn obj_loader_survives_hostile_text() {
     );
     // Many mutations of an .obj stay valid (tobj skips unknown lines): only require some rejections.
     assert!(rejected > 50, "only {rejected} mutated .obj files rejected");
+}
+
+// ---- Inputs that other tools accept, or that failed late or silently ----
+
+/// `.map` bytes, not text: mutations that leave bytes which are not UTF-8 (Quake's high-bit
+/// characters) reach the parser as Latin-1 text instead of failing to decode.
+#[test]
+fn map_parser_survives_hostile_bytes() {
+    let inputs = bundled_with_ext("map");
+    let mut high_bit_accepted = 0;
+    hammer(
+        "map bytes",
+        &inputs,
+        150,
+        21,
+        |r, d| {
+            let mut out = mutate(r, d, 0);
+            // Half of the mutations also put high-bit bytes inside the first quoted string.
+            if r.below(2) == 0
+                && let Some(q) = out.iter().position(|&b| b == b'"')
+            {
+                let junk: Vec<u8> = (0..1 + r.below(8)).map(|_| 0x80 | r.next_u64() as u8).collect();
+                out.splice(q + 1..q + 1, junk);
+            }
+            out
+        },
+        linear_bound,
+        |data| {
+            let ok = map::parse_bytes(data, "hostile.map").is_ok();
+            high_bit_accepted += usize::from(ok && std::str::from_utf8(data).is_err());
+            ok
+        },
+    );
+    assert!(high_bit_accepted > 0, "no map with high-bit bytes was accepted");
+}
+
+/// A small PRT1 file: 3 leaves in a row, two portals.
+const PRT1_ROW: &str = "PRT1\n3\n2\n4 0 1 (64 0 0) (64 0 64) (64 64 64) (64 64 0)\n\
+                        4 1 2 (128 0 0) (128 0 64) (128 64 64) (128 64 0)\n";
+
+#[test]
+fn prt_reader_reads_crlf_like_lf_and_survives_hostile_bytes() {
+    let lf = prt::read(PRT1_ROW, "row.prt").expect("valid");
+    let crlf = PRT1_ROW.replace('\n', "\r\n");
+    assert_eq!(prt::read_bytes(crlf.as_bytes(), "row.prt"), Ok(lf.clone()));
+    assert_eq!(prt::PrtFormat::of_text(&crlf), Some(prt::PrtFormat::Prt1));
+    let inputs = [PRT1_ROW.as_bytes().to_vec(), crlf.into_bytes()];
+    let rejected = hammer(
+        "prt bytes",
+        &inputs,
+        500,
+        22,
+        |r, d| mutate(r, d, 0),
+        linear_bound,
+        |data| {
+            match prt::read_bytes(data, "hostile.prt") {
+                // Whatever reads is a consistent file: its header sniffs as its format.
+                Ok(f) => {
+                    assert_eq!(prt::PrtFormat::of_text(&String::from_utf8_lossy(data)), Some(f.format));
+                    true
+                }
+                Err(e) => {
+                    assert!(e.line >= 1 && e.col >= 1, "{e}");
+                    false
+                }
+            }
+        },
+    );
+    assert!(rejected > 100, "only {rejected} of 1000 mutated portal files rejected");
+}
+
+/// Faces of one or two vertices are skipped and counted, never turned into triangles of no area;
+/// a face of no vertex is an error at its line.
+#[test]
+fn obj_faces_of_one_or_two_vertices_are_skipped_and_counted() {
+    let mut rng = Rng::new(23);
+    for _ in 0..300 {
+        let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n");
+        let (mut skipped, mut triangles) = (0, 0);
+        for _ in 0..1 + rng.below(12) {
+            let n = 1 + rng.below(5);
+            let face: Vec<String> = (0..n).map(|k| (1 + (k + rng.below(4)) % 4).to_string()).collect();
+            text.push_str(&format!("f {}\n", face.join(" ")));
+            if n < 3 {
+                skipped += 1;
+            } else {
+                triangles += n - 2;
+            }
+        }
+        let mut mesh = None;
+        let peak = peak_during(|| mesh = Some(obj::load_from_bytes(text.as_bytes(), "faces.obj")));
+        assert!(peak <= linear_bound(text.len()), "{peak} bytes");
+        let mesh = mesh.expect("ran").unwrap_or_else(|e| panic!("{e}\n{text}"));
+        assert_eq!((mesh.skipped_faces, mesh.triangles.len()), (skipped, triangles), "{text}");
+    }
+    let e = obj::load_from_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf\n", "none.obj").unwrap_err();
+    assert!(e.to_string().starts_with("none.obj:5"), "{e}");
+}
+
+/// A brush of more sides than a compile takes is an error naming it, found before any work on
+/// it; a brush of many narrow sides within the limit keeps them all.
+#[test]
+fn a_brush_of_too_many_sides_is_an_error_naming_it() {
+    use sightline_compiler::brush::MAX_BRUSH_SIDES;
+    use sightline_compiler::{CompileError, CompileOptions, NoProgress, Source, compile};
+    // A room (room.map) with a prism over an n-gon of radius 100 in worldspawn: its sides are
+    // narrow (0.6 units at n = 1022) and turn by small angles.
+    let room = String::from_utf8(bundled("room.map")).expect("UTF-8");
+    let prism = |n: usize| {
+        let mut b = String::from("{\n");
+        let corner = |i: usize| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            (128.0 + 100.0 * a.cos(), 128.0 + 100.0 * a.sin())
+        };
+        for i in 0..n {
+            let ((x0, y0), (x1, y1)) = (corner(i), corner(i + 1));
+            b.push_str(&format!("( {x0} {y0} 16 ) ( {x0} {y0} 64 ) ( {x1} {y1} 16 ) wall 0 0 0 1 1\n"));
+        }
+        b.push_str("( 0 0 16 ) ( 1 0 16 ) ( 0 1 16 ) wall 0 0 0 1 1\n( 0 0 64 ) ( 0 1 64 ) ( 1 0 64 ) wall 0 0 0 1 1\n}\n");
+        let at = room.find("}\n{\n\"classname\" \"info_player_start\"").expect("worldspawn ends");
+        let mut text = room.clone();
+        text.insert_str(at, &b);
+        text = text.replace("\"origin\" \"128 128 24\"", "\"origin\" \"16 16 100\"");
+        (text, room[..at].lines().count() + 1)
+    };
+    // n sides around and two caps.
+    let (text, line) = prism(MAX_BRUSH_SIDES - 1);
+    let map = map::parse(&text, "many.map").expect("parses");
+    let brush = map.entities[0].brushes.len() - 1;
+    let mut result = None;
+    let peak = peak_during(|| {
+        result = Some(compile(
+            &Source::Map { map, file: "many.map".into() },
+            &CompileOptions::default(),
+            &NoProgress,
+        ));
+    });
+    assert!(peak <= linear_bound(text.len()), "{peak} bytes");
+    match result.expect("ran") {
+        Err(e @ CompileError::BadBrush { .. }) => {
+            let msg = e.to_string();
+            let place = format!(
+                "many.map:{line}: entity 0 (`worldspawn`) brush {brush}: {} sides",
+                MAX_BRUSH_SIDES + 1
+            );
+            assert!(msg.starts_with(&place), "{msg}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Within the limit the brush keeps every narrow side (it used to keep 2 of them and be
+    // skipped with a warning). A few of these faces, 0.6 units wide at 0.006 radians from their
+    // neighbours, still fall into slivers of the tree thinner than ON_EPSILON that the outside
+    // fill closes: at least 99 % of the sides are drawn.
+    let (text, _) = prism(MAX_BRUSH_SIDES - 2);
+    let map = map::parse(&text, "ok.map").expect("parses");
+    let out = compile(&Source::Map { map, file: "ok.map".into() }, &CompileOptions::default(), &NoProgress)
+        .expect("compiles");
+    assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+    assert_eq!(out.stats.world_brushes, 7, "the room's six walls and the prism");
+    let faces = out.level.faces.len();
+    assert!(
+        faces >= (MAX_BRUSH_SIDES - 2) * 99 / 100 + 6,
+        "{faces} faces for 1,022 sides, two caps and the room"
+    );
+}
+
+/// A level without models reads (the `.slvl` layout allows it) but every consumer refuses it,
+/// naming the lump.
+#[test]
+fn a_level_without_models_is_refused_naming_the_lump() {
+    let room = String::from_utf8(bundled("room.map")).expect("UTF-8");
+    let map = map::parse(&room, "room.map").expect("parses");
+    let out = sightline_compiler::compile(
+        &sightline_compiler::Source::Map { map, file: "room.map".into() },
+        &sightline_compiler::CompileOptions::default(),
+        &sightline_compiler::NoProgress,
+    )
+    .expect("compiles");
+    let mut level = out.level;
+    level.models.clear();
+    let bytes = slvl::write(&level, &slvl::WriteOptions::default());
+    let level = slvl::read(&bytes).expect("an empty models lump reads");
+    let runtime = sightline_runtime::World::new(&level).expect_err("no world model");
+    assert!(runtime.to_string().contains("models lump is empty"), "{runtime}");
+    let tree = sightline_validate::bsp::BspTree::new(&level).expect_err("no tree");
+    assert!(tree.to_string().contains("models lump is empty"), "{tree}");
 }

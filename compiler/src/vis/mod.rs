@@ -4,7 +4,8 @@
 //! Phases: `graph` turns each portal line into two one-way portals; `base` computes each
 //! portal's `mightsee` (`--fast` stops there); `flow` clips windings through chains of portals,
 //! one source portal at a time; then each cluster's row is the union of what its portals see plus
-//! the clusters they lead to and itself.
+//! the clusters they lead to and itself. [`farplane::cull`] optionally hides far clusters from
+//! each other afterwards (`-farplane`), the one step that may hide a visible cluster.
 //!
 //! # Guarantees
 //! - **Never blocks a real sight line** (up to floating point): every clip keeps a
@@ -31,16 +32,23 @@
 //!   (Batches of one would let every portal use all earlier results, as the reference's single
 //!   thread does; on dm1 that saves under 3 % of the work, so batches cost little.)
 //! - **Resumable**: with [`VisOptions::state`], finished batches are checkpointed and a rerun
-//!   continues after them, producing the same result as an uninterrupted run.
+//!   continues after them, producing the same result as an uninterrupted run. The checkpoint is
+//!   the log of the batch boundaries (`state`), replayed and checked on resume: a damaged or
+//!   inconsistent file is a [`VisError::State`], never a different PVS.
+//! - **Fails, never hangs**: a panic in a flow worker (or anywhere in a run) stops every worker
+//!   and returns [`VisError::Panicked`].
 
 mod base;
 mod certify;
+pub mod farplane;
 mod flow;
 mod graph;
 mod poly;
 mod state;
 mod symmetry;
 
+use std::any::Any;
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError, RwLock};
@@ -79,6 +87,9 @@ pub struct VisOptions {
     /// Stop the same way at the next batch boundary once this flag is set (for example by a
     /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
     pub cancel: Option<Arc<AtomicBool>>,
+    /// Tests only: panic in the flow at this position of the processing order.
+    #[cfg(test)]
+    pub(crate) panic_at: Option<usize>,
 }
 
 impl Default for VisOptions {
@@ -92,6 +103,8 @@ impl Default for VisOptions {
             checkpoint_interval: Duration::from_secs(180),
             stop_after: None,
             cancel: None,
+            #[cfg(test)]
+            panic_at: None,
         }
     }
 }
@@ -140,6 +153,9 @@ pub enum VisError {
     /// The thread pool could not be built.
     #[error("thread pool: {0}")]
     Threads(String),
+    /// A bug: vis panicked (in a flow worker or elsewhere); every worker was stopped.
+    #[error("vis panicked (a bug; every worker was stopped): {0}")]
+    Panicked(String),
 }
 
 /// Measurements of a run.
@@ -265,7 +281,8 @@ pub fn run(
         .build()
         .map_err(|e| VisError::Threads(e.to_string()))?;
     let threads = pool.current_num_threads();
-    let mut result = pool.install(|| run_in_pool(prt, opts, progress))?;
+    let run = || pool.install(|| run_in_pool(prt, opts, progress));
+    let mut result = std::panic::catch_unwind(AssertUnwindSafe(run)).map_err(panic_error)??;
     result.stats.threads = threads;
     Ok(result)
 }
@@ -288,6 +305,16 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
         )));
     }
     Ok(())
+}
+
+/// The error for a caught panic, with its message when it has one.
+fn panic_error(payload: Box<dyn Any + Send>) -> VisError {
+    let message = payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".to_string());
+    VisError::Panicked(message)
 }
 
 /// Hash of the input and of the options that change flow rows.
@@ -354,27 +381,35 @@ fn flow_all(
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
     let mut test = might.to_vec();
+    symmetry::tighten_all(&mut test, words, n);
     let nc = g.num_clusters();
     let mut seeds = vec![0u64; nc * bits::words(nc)];
-    // Only checkpoints need the input's identity (hashing prints the whole portal file).
-    let hash = if opts.state.is_some() { input_hash(prt, opts) } else { 0 };
     let mut done = 0usize;
-    if let Some(path) = &opts.state
-        && let Some(st) = state::load(path, hash, n, words, seeds.len())?
-    {
-        done = st.done as usize;
-        for (k, &p) in order[..done].iter().enumerate() {
-            test[p * words..(p + 1) * words].copy_from_slice(&st.rows[k * words..(k + 1) * words]);
-        }
-        seeds = st.seeds;
-        stats.chains = st.chains;
-        stats.resumed_portals = done;
+    // With a state file, the log of every batch boundary: loaded and replayed when the file
+    // exists (the rows and seeds the uninterrupted run had after those batches), then extended.
+    let mut log = None;
+    if let Some(path) = &opts.state {
+        // Hashing prints the whole portal file: only checkpoints need the input's identity.
+        let want = state::Expect {
+            input_hash: input_hash(prt, opts),
+            portals: n,
+            words,
+            clusters: nc,
+            batch: FLOW_BATCH,
+        };
+        log = Some(match state::load(path, &want)? {
+            Some(st) => {
+                st.replay(&order, &mut test, &mut seeds).map_err(|e| state::inconsistent(path, &e))?;
+                done = st.done as usize;
+                stats.chains = st.total_chains();
+                stats.resumed_portals = done;
+                st
+            }
+            None => state::State::new(want.input_hash, n, words, nc),
+        });
     }
-    // Every pair of rows ends up as the AND of all values either held, so applying this after
-    // loading checkpointed rows gives the same rows as the uninterrupted run.
-    symmetry::tighten_all(&mut test, words, n);
-    let run = Run { g, order: &order, words, n, hash, opts, progress };
-    let test = run.batches(Rows { test, seeds }, done, stats)?;
+    let run = Run { g, order: &order, words, n, opts, progress };
+    let test = run.batches(Rows { test, seeds }, done, log, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
@@ -397,7 +432,6 @@ struct Run<'a> {
     order: &'a [usize],
     words: usize,
     n: usize,
-    hash: u64,
     opts: &'a VisOptions,
     progress: &'a (dyn Fn(VisProgress) + Sync),
 }
@@ -427,6 +461,8 @@ struct Slot {
 /// Bookkeeping done at batch boundaries by the worker that finishes a batch.
 struct Boundary<'s> {
     stats: &'s mut VisStats,
+    /// With a state file, what it will hold: the log of every boundary so far.
+    log: Option<state::State>,
     last_save: Instant,
     outcome: Option<VisError>,
 }
@@ -436,8 +472,16 @@ impl Run<'_> {
     /// portal starts once every earlier batch is folded into `test`, and reads `test` only then.
     /// Workers are plain threads that take portals from a shared cursor and wait for the next
     /// batch by spinning: small maps have many short batches, and waking sleeping threads per
-    /// batch cost more than the batches. Returns the final rows, or why the run stopped.
-    fn batches(&self, rows: Rows, done: usize, stats: &mut VisStats) -> Result<Vec<u64>, VisError> {
+    /// batch cost more than the batches. A worker that panics records the error and halts the
+    /// cursor, so the others stop waiting for a batch that cannot close. Returns the final rows,
+    /// or why the run stopped.
+    fn batches(
+        &self,
+        rows: Rows,
+        done: usize,
+        log: Option<state::State>,
+        stats: &mut VisStats,
+    ) -> Result<Vec<u64>, VisError> {
         let threads = rayon::current_num_threads().max(1);
         let test = RwLock::new(rows);
         let slots: Vec<Mutex<Slot>> = (0..FLOW_BATCH).map(|_| Mutex::new(Slot::default())).collect();
@@ -448,10 +492,19 @@ impl Run<'_> {
             halt: AtomicBool::new(false),
             counter: AtomicUsize::new(done),
         };
-        let boundary = Mutex::new(Boundary { stats, last_save: Instant::now(), outcome: None });
+        let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None });
         std::thread::scope(|scope| {
             for _ in 0..threads {
-                scope.spawn(|| self.worker(done, &test, &slots, &cursor, &boundary));
+                scope.spawn(|| {
+                    let work = || self.worker(done, &test, &slots, &cursor, &boundary);
+                    if let Err(payload) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
+                        let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
+                        if !matches!(b.outcome, Some(VisError::Panicked(_))) {
+                            b.outcome = Some(panic_error(payload));
+                        }
+                        cursor.halt.store(true, Ordering::Release);
+                    }
+                });
             }
         });
         let boundary = boundary.into_inner().unwrap_or_else(PoisonError::into_inner);
@@ -492,6 +545,10 @@ impl Run<'_> {
             }
             let mut out = vec![0u64; self.words];
             f.chains = 0;
+            #[cfg(test)]
+            if self.opts.panic_at == Some(i) {
+                panic!("injected panic at flow position {i}");
+            }
             {
                 let rows = test.read().unwrap_or_else(PoisonError::into_inner);
                 let p = self.order[i];
@@ -522,30 +579,36 @@ impl Run<'_> {
         boundary: &Mutex<Boundary<'_>>,
     ) {
         let (n, words) = (self.n, self.words);
-        let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut guard = boundary.lock().unwrap_or_else(PoisonError::into_inner);
+        let b = &mut *guard;
         let mut rows = test.write().unwrap_or_else(PoisonError::into_inner);
         let cw = bits::words(self.g.num_clusters());
         let Rows { test: rows, seeds } = &mut *rows;
+        let mut added = Vec::new();
         for (pos, &p) in self.order[batch_start..batch_end].iter().enumerate() {
             let slot = slots[pos].lock().unwrap_or_else(PoisonError::into_inner);
             symmetry::replace_row(rows, words, p, &slot.row);
             for &(from, to) in &slot.certified {
-                bits::set(&mut seeds[from as usize * cw..(from as usize + 1) * cw], to as usize);
+                let seed_row = &mut seeds[from as usize * cw..(from as usize + 1) * cw];
+                if !bits::get(seed_row, to as usize) {
+                    bits::set(seed_row, to as usize);
+                    added.push((from, to));
+                }
             }
             b.stats.chains += slot.chains;
+            // The log replays exactly this: the row as folded, and the pairs that were new.
+            match &mut b.log {
+                Some(log) => log.push(&rows[p * words..(p + 1) * words], slot.chains, added.drain(..)),
+                None => added.clear(),
+            }
         }
         let done = batch_end;
         let cancelled = self.opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
         let stop = (self.opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
-        if let Some(path) = &self.opts.state
+        if let (Some(path), Some(log)) = (&self.opts.state, &b.log)
             && (stop || (done < n && b.last_save.elapsed() >= self.opts.checkpoint_interval))
         {
-            let finished: Vec<u64> = self.order[..done]
-                .iter()
-                .flat_map(|&p| rows[p * words..(p + 1) * words].iter().copied())
-                .collect();
-            let st = state::State::new(self.hash, n, words, done, finished, seeds.clone(), b.stats.chains);
-            let saved = state::save(path, &st);
+            let saved = state::save(path, log);
             b.last_save = Instant::now();
             if let Err(e) = saved {
                 b.outcome = Some(e);

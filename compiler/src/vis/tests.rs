@@ -161,3 +161,207 @@ fn windings_count_as_convex_only_when_they_are() {
     bent.portals[1].winding.points[2].x += 0.5;
     assert!(!graph::Graph::new(&bent).convex);
 }
+
+/// An `nx` × `ny` grid of 64-unit cells (one leaf and cluster each) whose walls have openings of
+/// random size and place, some walls none: many batches, and flows that certify sight lines.
+fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
+    let mut rng = sightline_formats::rng::SplitMix64::new(seed);
+    // A rectangle facing `into` (the normal points into the file's first leaf).
+    let rect = |pts: Vec<DVec3>, into: DVec3| {
+        let w = Winding::new(pts);
+        if w.plane().expect("plane").normal.dot(into) > 0.0 { w } else { w.reversed() }
+    };
+    let mut portals = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            let leaf = j * nx + i;
+            for (dx, dy) in [(1, 0), (0, 1)] {
+                if i + dx >= nx || j + dy >= ny || rng.below(7) == 0 {
+                    continue;
+                }
+                let width = rng.range_f64(8.0, 64.0);
+                let a = rng.range_f64(0.0, 64.0 - width);
+                let h = rng.range_f64(16.0, 64.0);
+                let (x, y) = (64.0 * f64::from(i + dx), 64.0 * f64::from(j + dy));
+                let winding = if dx == 1 {
+                    let (y0, y1) = (64.0 * f64::from(j) + a, 64.0 * f64::from(j) + a + width);
+                    let pts = [(y0, 0.0), (y1, 0.0), (y1, h), (y0, h)].map(|(y, z)| DVec3::new(x, y, z));
+                    rect(pts.to_vec(), -DVec3::X)
+                } else {
+                    let (x0, x1) = (64.0 * f64::from(i) + a, 64.0 * f64::from(i) + a + width);
+                    let pts = [(x0, 0.0), (x1, 0.0), (x1, h), (x0, h)].map(|(x, z)| DVec3::new(x, y, z));
+                    rect(pts.to_vec(), -DVec3::Y)
+                };
+                portals.push(PrtPortal { leaves: [leaf, leaf + dx + dy * nx], winding });
+            }
+        }
+    }
+    let n = nx * ny;
+    PortalFile {
+        format: PrtFormat::Prt1,
+        num_leaves: n,
+        num_clusters: n,
+        portals,
+        leaf_clusters: (0..n).collect(),
+    }
+}
+
+/// What a state for `prt` under `opts` must match.
+fn expect(prt: &PortalFile, opts: &VisOptions) -> state::Expect {
+    let g = graph::Graph::new(prt);
+    let n = g.portals.len();
+    state::Expect {
+        input_hash: input_hash(prt, opts),
+        portals: n,
+        words: bits::words(n),
+        clusters: g.num_clusters(),
+        batch: FLOW_BATCH,
+    }
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("sightline-vis-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    dir
+}
+
+/// Interrupt after `k` batches for each `k`; resuming from the checkpoint, from the checkpoint
+/// cut back to every smaller number of batches, and from the checkpoint with any byte flipped
+/// or its content made inconsistent (checksum recomputed) either gives the uninterrupted PVS or
+/// fails with [`VisError::State`] naming the file: never another PVS.
+fn check_resumes(prt: &PortalFile, name: &str, ks: &[usize]) {
+    let whole = run(prt, &VisOptions { threads: 2, ..VisOptions::default() }, &none()).expect("whole");
+    let dir = temp_dir(name);
+    let path = dir.join(format!("{name}.state"));
+    let opts = VisOptions { threads: 2, state: Some(path.clone()), ..VisOptions::default() };
+    let want = expect(prt, &opts);
+    // Resume from the file at `path`: the uninterrupted PVS, or an error naming the file.
+    let resume = |must_succeed: bool, what: &str| -> Option<VisResult> {
+        match run(prt, &opts, &none()) {
+            Ok(r) => {
+                assert_eq!(r.rows, whole.rows, "{name}: {what}: resumed to another PVS");
+                assert_eq!(r.stats.chains, whole.stats.chains, "{name}: {what}: chains");
+                Some(r)
+            }
+            Err(VisError::State(m)) if !must_succeed => {
+                assert!(m.contains(&format!("{name}.state")), "{name}: {what}: the file is named: {m}");
+                None
+            }
+            Err(e) => panic!("{name}: {what}: {e}"),
+        }
+    };
+    for &k in ks {
+        let stop = VisOptions { stop_after: Some(k * FLOW_BATCH), ..opts.clone() };
+        assert!(matches!(run(prt, &stop, &none()), Err(VisError::Interrupted { .. })), "{name}: stop at {k}");
+        let saved = std::fs::read(&path).expect("state written");
+        let st = state::load(&path, &want).expect("load").expect("present");
+        assert_eq!(st.done as usize, k * FLOW_BATCH);
+        assert!(!st.pairs.is_empty(), "{name}: the flows certified seed pairs");
+        // Every shorter checkpoint, down to none, is one the run could have written.
+        for j in (0..=k).rev() {
+            let mut cut = st.clone();
+            cut.truncate(j * FLOW_BATCH);
+            state::save(&path, &cut).expect("save");
+            let r = resume(true, &format!("cut to {j} of {k} batches")).expect("resumed");
+            assert_eq!(r.stats.resumed_portals, j * FLOW_BATCH);
+            assert!(!path.exists(), "a finished run removes its state");
+        }
+        // Damage anywhere: header, `done`, rows, pairs, the checksum.
+        let len = saved.len();
+        for at in [0, 9, 8 * 5, 8 * 5 + 3, 8 * 7, len / 3, len / 2, len - 40, len - 9, len - 1] {
+            let mut bad = saved.clone();
+            bad[at] ^= 0x04;
+            std::fs::write(&path, &bad).expect("write");
+            resume(false, &format!("byte {at} of {len} flipped"));
+        }
+        // Content no run could write, with a valid checksum.
+        let n = want.portals;
+        let last = st.rows.len() - 1;
+        let mut tampered: Vec<(&str, state::State)> = Vec::new();
+        if !n.is_multiple_of(64) {
+            let mut b = st.clone();
+            b.rows[last] |= 1 << 63;
+            tampered.push(("a padding bit in a row", b));
+        }
+        let mut b = st.clone();
+        b.truncate(st.done as usize - 20);
+        tampered.push(("cut between batches (a resume would batch the rest differently)", b));
+        let mut b = st.clone();
+        b.done -= FLOW_BATCH as u64;
+        tampered.push(("`done` rewound without its records", b));
+        let mut b = st.clone();
+        let words = want.words;
+        b.rows.iter_mut().enumerate().for_each(|(i, w)| *w = bits::valid_mask(i % words, n));
+        tampered.push(("rows widened to every portal", b));
+        let mut b = st.clone();
+        b.pairs[0] = [want.clusters as u32, 0];
+        tampered.push(("a seed cluster out of range", b));
+        let mut b = st.clone();
+        let first = b.pairs[0];
+        b.pairs.push(first);
+        *b.added.last_mut().expect("portals") += 1;
+        tampered.push(("a seed pair recorded twice", b));
+        for (what, b) in tampered {
+            state::save(&path, &b).expect("save");
+            resume(false, what);
+        }
+        let _ = std::fs::remove_file(&path);
+    }
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}
+
+#[test]
+fn resume_from_any_checkpoint_equals_the_uninterrupted_run_or_fails() {
+    let prt = grid(12, 12, 7);
+    let n = graph::Graph::new(&prt).portals.len();
+    assert!(n > 8 * FLOW_BATCH, "{n} portals make several batches");
+    check_resumes(&prt, "grid", &[1, 3, n / FLOW_BATCH - 1]);
+}
+
+#[test]
+fn resume_on_a_real_map_equals_the_uninterrupted_run_or_fails() {
+    // ericw's dm1, where a checkpoint cut back to a portal count between batches (its later
+    // seeds kept) used to resume to about 30 fewer pairs: the rest was batched differently.
+    let Some(path) = sightline_formats::shared_maps::dir().map(|d| d.join("ericw/dm1.prt")) else { return };
+    let Ok(text) = std::fs::read_to_string(&path) else { return };
+    let prt = sightline_formats::prt::read(&text, "dm1.prt").expect("parse");
+    check_resumes(&prt, "dm1", &[2, 9, 16]);
+}
+
+/// Run `f` on another thread; fail if it takes longer than a minute (a hang).
+fn within_a_minute<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(Duration::from_secs(60)).expect("vis hung after a panic")
+}
+
+#[test]
+fn a_panicking_worker_ends_the_run_with_an_error_not_a_hang() {
+    let prt = grid(8, 8, 3);
+    let n = graph::Graph::new(&prt).portals.len();
+    for threads in [1, 2, 4] {
+        for at in [0, 5, FLOW_BATCH + 1, n - 1] {
+            let prt = prt.clone();
+            let r = within_a_minute(move || {
+                run(&prt, &VisOptions { threads, panic_at: Some(at), ..VisOptions::default() }, &none())
+            });
+            match r {
+                Err(VisError::Panicked(m)) => assert!(m.contains("injected"), "{m}"),
+                other => panic!("{threads} threads, panic at {at}: {other:?}"),
+            }
+        }
+    }
+    // A panic outside the flow (here the caller's progress callback) ends it the same way.
+    let r = within_a_minute(move || {
+        let progress = |p: VisProgress| {
+            if p.phase == VisPhase::Flow && p.done == 10 {
+                panic!("progress");
+            }
+        };
+        run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &progress)
+    });
+    assert!(matches!(r, Err(VisError::Panicked(_))), "{r:?}");
+}

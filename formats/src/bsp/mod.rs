@@ -7,7 +7,9 @@
 //! a [`Bsp`] may index its vectors without checks, and [`to_level`] of it passes
 //! [`crate::slvl::validate`].
 //! [`write_with_visdata`] replaces the visibility lump of an existing file and keeps every other
-//! lump byte-identical ([`write_vis_rows`] from one row offset per vis leaf); [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
+//! lump byte-identical ([`write_vis_rows`] from one row offset per vis leaf); [`check_vis_layout`]
+//! tells beforehand whether a file's lumps allow that (vis asks before computing anything);
+//! [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
 //!
 //! # Conventions (Quake's)
 //! - Node children use Quake's encoding, widened to `i32`: `c >= 0` is node `c`, `c < 0` is leaf
@@ -26,7 +28,7 @@ mod parse;
 mod write;
 
 pub use convert::to_level;
-pub use write::{write_vis_rows, write_with_visdata};
+pub use write::{check_vis_layout, write_vis_rows, write_with_visdata};
 
 use crate::bits;
 use crate::rle::{self, RleError};
@@ -369,6 +371,27 @@ pub enum BspError {
         /// Vis leaves in the file.
         visleafs: usize,
     },
+    /// Two lumps share bytes that writing visdata needs apart ([`check_vis_layout`]): the
+    /// visibility lump (rewritten) or the leaves lump (whose `visofs` and ambient levels are
+    /// rewritten) and another lump or the header.
+    #[error(
+        "byte {offset}: lump {lump} (bytes {offset}..{end}) overlaps {other} (bytes {other_offset}..{other_end}); \
+         vis rewrites the {lump} lump and needs it apart from every other lump"
+    )]
+    Overlap {
+        /// The lump vis rewrites (`"visibility"` or `"leaves"`).
+        lump: &'static str,
+        /// Its first byte in the file.
+        offset: usize,
+        /// One past its last byte.
+        end: usize,
+        /// What it overlaps: `"lump NAME"` or `"the header"`.
+        other: String,
+        /// The other's first byte.
+        other_offset: usize,
+        /// One past the other's last byte.
+        other_end: usize,
+    },
     /// Arguments of [`write_with_visdata`] do not match the file.
     #[error("cannot write visdata: {0}")]
     Write(String),
@@ -587,6 +610,65 @@ mod tests {
         assert_eq!(read(&out).unwrap().lumps[lump::VISIBILITY].offset, at_zero.len().next_multiple_of(4));
         // A row offset outside the new visdata is caught by the read-back.
         assert!(write_with_visdata(&original, &[1], &[-1, 1], None).is_err());
+    }
+
+    /// Sets lump `index`'s header entry in `file`.
+    fn set_lump(file: &mut [u8], index: usize, offset: usize, length: usize) {
+        let at = 4 + 8 * index;
+        file[at..at + 4].copy_from_slice(&(offset as i32).to_le_bytes());
+        file[at + 4..at + 8].copy_from_slice(&(length as i32).to_le_bytes());
+    }
+
+    #[test]
+    fn overlapping_lumps_are_refused_before_any_writing() {
+        let good = tiny(&[1], -1);
+        let lumps = read(&good).unwrap().lumps;
+        assert_eq!(check_vis_layout(&lumps), Ok(()));
+        let nodes = lumps[lump::NODES];
+        // The visibility lump stretched over the nodes lump: refused by name and byte range.
+        let mut bad = good.clone();
+        set_lump(&mut bad, lump::VISIBILITY, nodes.offset, 4);
+        let e = write_with_visdata(&bad, &[1], &[-1, 0], None).unwrap_err();
+        let BspError::Overlap { lump: "visibility", offset, end, ref other, other_offset, other_end } = e
+        else {
+            panic!("{e:?}")
+        };
+        assert_eq!((offset, end, other.as_str()), (nodes.offset, nodes.offset + 4, "lump nodes"));
+        assert_eq!((other_offset, other_end), (nodes.offset, nodes.end()));
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "byte {o}: lump visibility (bytes {o}..{e4}) overlaps lump nodes (bytes {o}..{ne}); \
+                 vis rewrites the visibility lump and needs it apart from every other lump",
+                o = nodes.offset,
+                e4 = nodes.offset + 4,
+                ne = nodes.end()
+            )
+        );
+        // An empty visibility lump strictly inside another lump, visdata over the header, leaves
+        // sharing bytes with the models.
+        let mut inside = good.clone();
+        set_lump(&mut inside, lump::VISIBILITY, nodes.offset + 4, 0);
+        assert!(matches!(
+            check_vis_layout(&parse::read_header(&inside).unwrap().1),
+            Err(BspError::Overlap { lump: "visibility", .. })
+        ));
+        let mut header = good.clone();
+        set_lump(&mut header, lump::VISIBILITY, 8, 4);
+        assert!(matches!(
+            check_vis_layout(&parse::read_header(&header).unwrap().1),
+            Err(BspError::Overlap { lump: "visibility", other, other_offset: 0, .. }) if other == "the header"
+        ));
+        let mut leaves = good.clone();
+        set_lump(&mut leaves, lump::LEAVES, lumps[lump::MODELS].offset, 28);
+        assert!(matches!(
+            check_vis_layout(&parse::read_header(&leaves).unwrap().1),
+            Err(BspError::Overlap { lump: "leaves", other, .. }) if other == "lump models"
+        ));
+        // An empty visibility lump recorded at offset 0 is fine: its data goes at the end.
+        let mut at_zero = good.clone();
+        set_lump(&mut at_zero, lump::VISIBILITY, 0, 0);
+        assert_eq!(check_vis_layout(&parse::read_header(&at_zero).unwrap().1), Ok(()));
     }
 
     #[test]

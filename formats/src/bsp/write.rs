@@ -1,6 +1,6 @@
 //! Replacing the visibility lump of an existing BSP file.
 
-use super::{Bsp, BspError, HEADER_BYTES, LumpEntry, lump, parse, read};
+use super::{Bsp, BspError, HEADER_BYTES, LumpEntry, NUM_LUMPS, lump, parse, read};
 
 fn align4(x: usize) -> usize {
     x.next_multiple_of(4)
@@ -8,6 +8,50 @@ fn align4(x: usize) -> usize {
 
 fn write_err(msg: impl Into<String>) -> BspError {
     BspError::Write(msg.into())
+}
+
+/// Checks that visdata can be written into a file with these lumps, as [`write_with_visdata`]
+/// needs: the visibility lump (unless it is empty) lies past the header, and it shares no byte with
+/// another non-empty lump (an empty visibility lump must not sit strictly inside one); the leaves
+/// lump, whose records get new `visofs` and ambient levels, shares no byte with the header or
+/// another non-empty lump. The error names both byte ranges. Files from BSP compilers never
+/// overlap their lumps; [`super::read`] accepts overlaps, since reading does not care.
+pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> {
+    let overlap = |lump: usize, other: String, o: LumpEntry| BspError::Overlap {
+        lump: lump::NAMES[lump],
+        offset: lumps[lump].offset,
+        end: lumps[lump].end(),
+        other,
+        other_offset: o.offset,
+        other_end: o.end(),
+    };
+    let header = LumpEntry { offset: 0, length: HEADER_BYTES };
+    let vis = lumps[lump::VISIBILITY];
+    if vis.offset < HEADER_BYTES {
+        // An empty visibility lump recorded in the header gets its data appended at the end.
+        if vis.length > 0 {
+            return Err(overlap(lump::VISIBILITY, "the header".into(), header));
+        }
+    } else {
+        for (j, l) in lumps.iter().enumerate() {
+            if j != lump::VISIBILITY && l.length > 0 && l.offset < vis.end() && vis.offset < l.end() {
+                return Err(overlap(lump::VISIBILITY, format!("lump {}", lump::NAMES[j]), *l));
+            }
+        }
+    }
+    let leaves = lumps[lump::LEAVES];
+    if leaves.length > 0 {
+        if leaves.offset < HEADER_BYTES {
+            return Err(overlap(lump::LEAVES, "the header".into(), header));
+        }
+        for (j, l) in lumps.iter().enumerate() {
+            let apart = l.offset >= leaves.end() || leaves.offset >= l.end();
+            if j != lump::LEAVES && j != lump::VISIBILITY && l.length > 0 && !apart {
+                return Err(overlap(lump::LEAVES, format!("lump {}", lump::NAMES[j]), *l));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Returns `original` (which parses as `bsp`) with the visibility lump replaced by `visdata` and
@@ -40,7 +84,8 @@ pub fn write_vis_rows(
 /// kept (the padding written is zero bytes). An empty visibility lump recorded inside the header
 /// (offset 0) gets its new data appended at the end of the file. Every other byte of every other lump is unchanged, so
 /// writing back the visdata a file already has reproduces it exactly. The result is read back
-/// with [`read`] before it is returned, so a file that would not load is never produced.
+/// with [`read`] before it is returned, so a file that would not load is never produced. Lumps laid
+/// out so that this cannot work are refused first ([`check_vis_layout`]).
 pub fn write_with_visdata(
     original: &[u8],
     visdata: &[u8],
@@ -48,6 +93,7 @@ pub fn write_with_visdata(
     ambient: Option<&[[u8; 4]]>,
 ) -> Result<Vec<u8>, BspError> {
     let (version, lumps) = parse::read_header(original)?;
+    check_vis_layout(&lumps)?;
     let leaf_bytes = version.leaf_bytes();
     let leaves = lumps[lump::LEAVES];
     if !leaves.length.is_multiple_of(leaf_bytes) {
@@ -70,9 +116,6 @@ pub fn write_with_visdata(
     // place among the lumps: the new data goes at the end of the file, 4-aligned.
     let appended;
     let original = if vis.offset < HEADER_BYTES {
-        if vis.length > 0 {
-            return Err(write_err("the visibility lump overlaps the header"));
-        }
         let mut padded = original.to_vec();
         padded.resize(align4(padded.len()), 0);
         vis = LumpEntry { offset: padded.len(), length: 0 };
@@ -82,11 +125,6 @@ pub fn write_with_visdata(
         original
     };
     let (old_start, old_end) = (vis.offset, vis.end());
-    for (j, l) in lumps.iter().enumerate() {
-        if j != lump::VISIBILITY && l.length > 0 && l.offset < old_end && old_start < l.end() {
-            return Err(write_err(format!("lump {} overlaps the visibility lump", lump::NAMES[j])));
-        }
-    }
     // Where the bytes after the visibility lump start: after its alignment padding when no lump
     // starts inside that padding, else right after it.
     let first_follow = lumps

@@ -167,3 +167,22 @@ fn pvs_walk_equals_the_reference_walk_on_real_maps() {
         assert!(wants.iter().map(|w| w.faces.len()).sum::<usize>() > 1000 * cams.len() / 100);
     }
 }
+
+/// The runtime finds a real map's portal file as vis does (`NAME.prt` beside `NAME.vis.bsp`) and
+/// reads it the same with Windows line breaks.
+#[test]
+fn a_crlf_portal_file_beside_a_real_map_gives_the_same_portals() {
+    let Some(bsp) = sightline_tests::shared_map("ericw/e1m1_nodetail.vis.bsp") else { return };
+    let prt = std::fs::read_to_string(bsp.with_file_name("e1m1_nodetail.prt")).expect("e1m1_nodetail.prt");
+    let dir = std::env::temp_dir().join(format!("sightline-crlf-prt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let copy = dir.join("e1m1_nodetail.vis.bsp");
+    std::fs::copy(&bsp, &copy).expect("copy");
+    std::fs::write(dir.join("e1m1_nodetail.prt"), prt.replace('\n', "\r\n")).expect("write");
+    assert_eq!(load::sibling_prt(&copy), Some(dir.join("e1m1_nodetail.prt")));
+    let crlf = load::load_path(&copy).expect("loads");
+    let lf = load::load_path(&bsp).expect("loads");
+    assert!(lf.num_portals() > 1000);
+    assert_eq!(crlf.num_portals(), lf.num_portals());
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}

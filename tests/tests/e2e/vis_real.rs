@@ -243,6 +243,14 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
         input: bsp_path.clone(),
         threads: 2,
         vis: sightline::cmd::vis::VisFlags::default(),
+        farplane: None,
+        no_ambient: false,
+        no_ambient_sky: false,
+        no_ambient_water: false,
+        no_ambient_slime: false,
+        no_ambient_lava: false,
+        no_state: false,
+        no_progress: false,
         json: true,
     };
     sightline::cmd::vis::run(&args).unwrap();

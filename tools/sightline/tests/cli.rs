@@ -169,3 +169,581 @@ fn a_pvs_that_hides_a_visible_leaf_is_a_finding_exit_1() {
     assert_eq!(code(&o), 1, "a miss is a finding: {}", stderr(&o));
     stdout_json(&o);
 }
+
+/// `NAME` in the shared maps folder (`$SIGHTLINE_MAPS`, else `../shared/maps`), or `None` with a
+/// note when it is absent.
+fn shared_map(name: &str) -> Option<PathBuf> {
+    let path = sightline_formats::shared_maps::dir().map(|d| d.join(name)).filter(|p| p.is_file());
+    if path.is_none() {
+        eprintln!("note: shared map {name} not found (set SIGHTLINE_MAPS); skipped");
+    }
+    path
+}
+
+/// Copies the shared `.bsp` at `bsp` and its `.prt` (and `.texinfo.json`, when present) into a
+/// fresh temp dir `tag` as `NAME.*`; returns the dir.
+fn copy_map(bsp: &Path, tag: &str, name: &str) -> PathBuf {
+    let dir = temp_dir(tag);
+    std::fs::copy(bsp, dir.join(format!("{name}.bsp"))).expect("copy .bsp");
+    std::fs::copy(bsp.with_extension("prt"), dir.join(format!("{name}.prt"))).expect("copy .prt");
+    let side = bsp.with_extension("texinfo.json");
+    if side.is_file() {
+        std::fs::copy(side, dir.join(format!("{name}.texinfo.json"))).expect("copy .texinfo.json");
+    }
+    dir
+}
+
+/// Runs `sightline ARGS` in `dir` (as TrenchBroom runs a compile profile's tasks in the map's
+/// folder) and checks exit 0.
+fn run_in(dir: &Path, args: &[&str]) -> Output {
+    let o = bin().args(args).current_dir(dir).output().expect("the sightline binary runs");
+    assert_eq!(code(&o), 0, "sightline {args:?} in {}: {}", dir.display(), stderr(&o));
+    o
+}
+
+fn read_bsp(path: &Path) -> sightline_formats::bsp::Bsp {
+    sightline_formats::bsp::read(&std::fs::read(path).expect("read .bsp")).expect("a valid .bsp")
+}
+
+/// Every vis leaf's decoded PVS row (vis leaf `j`'s row: bit `k` for vis leaf `k`).
+fn pvs_rows(bsp: &sightline_formats::bsp::Bsp) -> Vec<Vec<u8>> {
+    (1..=bsp.visleafs()).map(|l| bsp.decode_leaf_pvs(l).expect("row decodes")).collect()
+}
+
+fn bit(row: &[u8], k: usize) -> bool {
+    row[k / 8] & (1 << (k % 8)) != 0
+}
+
+#[test]
+fn vis_takes_an_ericw_command_line_base_name_and_single_dash_flags_anywhere() {
+    let Some(dm1) = shared_map("ericw/dm1.bsp") else { return };
+    let ours = copy_map(&dm1, "ericw-long", "dm1");
+    let long = ours.join("dm1.bsp");
+    run(&["vis", "--threads", "2", "--fast", s(&long)]);
+    let expected = std::fs::read(&long).expect("vised .bsp");
+    assert_ne!(expected, std::fs::read(&dm1).expect("original"), "vis wrote visdata");
+
+    // A base name, options before it; then options after it, with harmless ones mixed in.
+    let lines: [&[&str]; 3] = [
+        &["vis", "-threads", "2", "-fast", "dm1"],
+        &["vis", "dm1", "-fast", "-threads", "2", "-nopercent", "-v", "-nolog", "-noprogress", "-nostate"],
+        &["vis", "-verbose", "-lowpriority", "0", "-Threads", "2", "dm1.bsp", "-FAST"],
+    ];
+    for (i, line) in lines.iter().enumerate() {
+        let dir = copy_map(&dm1, &format!("ericw-short-{i}"), "dm1");
+        let o = run_in(&dir, &[&line[..], &["--json"]].concat());
+        let j = stdout_json(&o);
+        assert!(j["input"].as_str().expect("input").ends_with("dm1.bsp"), "{line:?} resolved {j}");
+        assert_eq!(
+            (j["vis"]["fast"].as_bool(), j["vis"]["threads"].as_u64()),
+            (Some(true), Some(2)),
+            "{line:?}"
+        );
+        let got = std::fs::read(dir.join("dm1.bsp")).expect("vised .bsp");
+        assert!(got == expected, "{line:?} writes the same bytes as --threads 2 --fast");
+    }
+}
+
+#[test]
+fn vis_rejects_unknown_single_dash_options_naming_them() {
+    let dir = temp_dir("ericw-bad");
+    let bsp = dir.join("x.bsp");
+    for (args, named) in [
+        (vec!["vis", "-bogus", s(&bsp)], "-bogus"),
+        (vec!["vis", s(&bsp), "-threads", "2", "-noambientwind"], "-noambientwind"),
+        (vec!["vis", s(&bsp), "-threads"], "-threads"),
+        (vec!["vis", s(&bsp), "-farplane", "-5"], "-5"),
+    ] {
+        let o = run(&args);
+        assert_eq!(code(&o), 2, "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(named), "{args:?} names {named}: {}", stderr(&o));
+        assert!(o.stdout.is_empty());
+    }
+    // Sightline's own flags are untouched: a `--` flag it does not know is clap's error.
+    let o = run(&["vis", "--bogus", s(&bsp)]);
+    assert_eq!(code(&o), 2);
+    assert!(stderr(&o).contains("--bogus"));
+}
+
+#[test]
+fn vis_noambient_zeroes_every_leaf_and_texinfo_json_silences_flagged_faces() {
+    // LibreQuake's lqdm1 (dm1 as compiled here has no texture names, so no sounds).
+    if let Some(lq) = shared_map("ericw/lqdm1.bsp") {
+        let plain = copy_map(&lq, "ambient-plain", "lqdm1");
+        run_in(&plain, &["vis", "-threads", "2", "-fast", "lqdm1"]);
+        let levels = |dir: &Path| {
+            read_bsp(&dir.join("lqdm1.bsp")).leaves.iter().map(|l| l.ambient).collect::<Vec<_>>()
+        };
+        assert!(levels(&plain).iter().any(|a| a.iter().any(|&v| v > 0)), "lqdm1 has ambient sounds");
+
+        let none = copy_map(&lq, "ambient-none", "lqdm1");
+        let o = run_in(&none, &["vis", "-threads", "2", "-fast", "-noambient", "lqdm1", "--json"]);
+        assert_eq!(stdout_json(&o)["ambient_off"], serde_json::json!(["water", "sky", "slime", "lava"]));
+        assert!(levels(&none).iter().all(|a| *a == [0; 4]), "every leaf's ambient levels are 0");
+
+        let sky = copy_map(&lq, "ambient-sky", "lqdm1");
+        run_in(&sky, &["vis", "-threads", "2", "-fast", "-noambientsky", "lqdm1"]);
+        for (a, b) in levels(&plain).iter().zip(levels(&sky)) {
+            assert_eq!((b[1], [b[0], b[2], b[3]]), (0, [a[0], a[2], a[3]]), "only the sky channel changes");
+        }
+    }
+
+    // ericw-tools' test map: the sky of one room is a func_group with "_noambient" "1", which its
+    // qbsp writes to NAME.texinfo.json. Read beside the .bsp, it silences that room.
+    let Some(map) = shared_map("ericw-testmaps/q1_vis_noambient_func_group.standin.bsp") else { return };
+    let dir = copy_map(&map, "ambient-json", "m");
+    let o = run_in(&dir, &["vis", "-threads", "2", "m", "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!(j["noambient_texinfos"], 1, "{j}");
+    assert!(j["texinfo_json"].as_str().expect("texinfo_json").ends_with("m.texinfo.json"));
+    let with_json: Vec<[u8; 4]> = read_bsp(&dir.join("m.bsp")).leaves.iter().map(|l| l.ambient).collect();
+    let ericw = read_bsp(&map.with_extension("ericw.bsp"));
+    assert_eq!(with_json, ericw.leaves.iter().map(|l| l.ambient).collect::<Vec<_>>(), "as ericw-tools' vis");
+
+    std::fs::remove_file(dir.join("m.texinfo.json")).expect("remove");
+    std::fs::copy(&map, dir.join("m.bsp")).expect("fresh copy");
+    run_in(&dir, &["vis", "-threads", "2", "m"]);
+    let without: Vec<[u8; 4]> = read_bsp(&dir.join("m.bsp")).leaves.iter().map(|l| l.ambient).collect();
+    assert!(
+        without.iter().zip(&with_json).any(|(a, b)| a[1] == 255 && b[1] == 0),
+        "without the side file the func_group's sky sounds"
+    );
+
+    std::fs::write(dir.join("m.texinfo.json"), "{\"4\": {\"noambient\": 1}}").expect("write");
+    let o = run(&["vis", s(&dir.join("m"))]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(stderr(&o).contains("m.texinfo.json"), "the bad side file is named: {}", stderr(&o));
+}
+
+#[test]
+fn vis_farplane_hides_only_pairs_farther_than_it() {
+    let Some(dm1) = shared_map("ericw/dm1.bsp") else { return };
+    let full = copy_map(&dm1, "farplane-off", "dm1");
+    run_in(&full, &["vis", "-threads", "2", "dm1"]);
+    let far = copy_map(&dm1, "farplane-256", "dm1");
+    let o = run_in(&far, &["vis", "-threads", "2", "-farplane", "256", "dm1", "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!(j["farplane"], 256.0);
+    let (a, b) = (read_bsp(&full.join("dm1.bsp")), read_bsp(&far.join("dm1.bsp")));
+    let (rows_a, rows_b) = (pvs_rows(&a), pvs_rows(&b));
+    let n = a.visleafs();
+    // Distance between the stored bounds of vis leaves i and k (BSP leaves i + 1, k + 1).
+    let gap = |i: usize, k: usize| {
+        let (p, q) = (&b.leaves[i + 1], &b.leaves[k + 1]);
+        (0..3)
+            .map(|x| f64::from((p.mins[x] - q.maxs[x]).max(q.mins[x] - p.maxs[x]).max(0.0)).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (mut seen_a, mut seen_b, mut hidden) = (0, 0, 0);
+    for i in 0..n {
+        assert!(bit(&rows_b[i], i), "leaf {i} still sees itself");
+        for k in 0..n {
+            let (va, vb) = (bit(&rows_a[i], k), bit(&rows_b[i], k));
+            assert!(!vb || va, "the far plane only hides: {i} -> {k}");
+            assert_eq!(vb, bit(&rows_b[k], i), "symmetric: {i} <-> {k}");
+            if va && !vb {
+                hidden += 1;
+                assert!(gap(i, k) > 256.0, "{i} -> {k} hidden at {} units", gap(i, k));
+            }
+            seen_a += usize::from(va);
+            seen_b += usize::from(vb);
+        }
+    }
+    assert!(seen_b <= seen_a && hidden > 0, "dm1 has leaves more than 256 units apart that see each other");
+    assert_eq!(j["vis"]["visible_pairs"], seen_b as u64, "the report counts the culled matrix");
+    eprintln!("far plane 256 on dm1: {seen_a} -> {seen_b} visible leaf pairs");
+
+    // Without a .bsp there are no leaf bounds: an error, not a guess.
+    let o = run(&["vis", s(&far.join("dm1.prt")), "--farplane", "256"]);
+    assert_eq!(code(&o), 2);
+    assert!(stderr(&o).contains("dm1.prt"), "{}", stderr(&o));
+}
+
+/// Run `args` with stdout a pipe whose reading end is closed before the command prints: its exit
+/// code and stderr (the code it exits with when the reader goes away).
+fn run_into_closed_pipe(args: &[&str]) -> (i32, String) {
+    use std::process::Stdio;
+    let mut child = bin()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the sightline binary runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    (code(&out), stderr(&out))
+}
+
+#[test]
+fn printing_into_a_closed_pipe_is_not_a_panic() {
+    // `sightline … | head -1`: the reader goes away; the command must not panic (exit 101), and
+    // exits as it would have with the whole output read.
+    let dir = temp_dir("pipe");
+    let level = compile(&dir, "two_rooms.map");
+    let prt = level.with_extension("prt");
+    let map = maps().join("stairs_pillars.map");
+    let out = dir.join("again.slvl");
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["info", "--json", s(&map)],
+        vec!["info", s(&level)],
+        vec!["validate", s(&level), "--rays", "2000"],
+        vec!["validate", s(&level), "--rays", "2000", "--json"],
+        vec!["compile", s(&map), "-o", s(&out), "--threads", "2"],
+        vec!["vis", s(&prt), "--threads", "2", "--json"],
+        vec!["bench", s(&level), "--frames", "20"],
+    ];
+    for args in commands {
+        let want = code(&run(&args));
+        for _ in 0..3 {
+            let (got, err) = run_into_closed_pipe(&args);
+            assert!(!err.contains("panicked"), "{args:?}: {err}");
+            assert_eq!(got, want, "{args:?}: the exit code of the full run: {err}");
+        }
+    }
+}
+
+/// Wait for `cmd` at most two minutes (a hang fails the test instead of stalling it).
+fn run_within_two_minutes(cmd: &mut Command) -> Output {
+    use std::process::Stdio;
+    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("try_wait").is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("{cmd:?} hung");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("output")
+}
+
+/// FNV-1a 64, the checksum of a vis state's trailer.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+/// Tampered copies of a vis state (`SLVISST3`: bincode with fixed-width little-endian integers —
+/// magic, input hash, portals, words, clusters, done, then length-prefixed rows (u64), chains
+/// (u64), added (u32) and pairs (2 × u32) — and an FNV-1a trailer): a flipped byte, and, with the
+/// checksum made right, a padding bit set in each finished row's last word and a seed pair out of
+/// range.
+fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
+    let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
+    let resum = |mut b: Vec<u8>| {
+        let n = b.len() - 8;
+        let sum = fnv1a(&b[..n]);
+        b[n..].copy_from_slice(&sum.to_le_bytes());
+        b
+    };
+    assert_eq!(&bytes[..8], &0x534c_5649_5353_5433u64.to_le_bytes(), "a SLVISST3 state");
+    let (portals, words, done) = (u64_at(bytes, 16), u64_at(bytes, 24) as usize, u64_at(bytes, 40) as usize);
+    assert!(done > 0 && portals % 64 != 0, "{done} finished portals; {portals} leave padding bits");
+    let mut out = Vec::new();
+    let mut flipped = bytes.to_vec();
+    flipped[bytes.len() / 2] ^= 0x20;
+    out.push(("a flipped byte".to_string(), flipped));
+    let rows_at = 56;
+    for k in 0..done {
+        let mut b = bytes.to_vec();
+        let last = rows_at + (k * words + words - 1) * 8;
+        b[last + 7] |= 0x80;
+        out.push((format!("a padding bit in finished row {k}"), resum(b)));
+    }
+    let chains_len_at = rows_at + done * words * 8;
+    let added_len_at = chains_len_at + 8 + done * 8;
+    let pairs_len_at = added_len_at + 8 + done * 4;
+    if u64_at(bytes, pairs_len_at) > 0 {
+        let mut b = bytes.to_vec();
+        b[pairs_len_at + 8..pairs_len_at + 12].copy_from_slice(&u32::MAX.to_le_bytes());
+        out.push(("a seed pair out of range".to_string(), resum(b)));
+    }
+    out
+}
+
+#[test]
+fn a_damaged_vis_state_is_an_error_naming_the_file_never_a_panic_or_a_hang() {
+    let dir = temp_dir("state");
+    let map = maps().join("stairs_pillars.map");
+    let level = dir.join("sp.slvl");
+    let o = run(&["compile", s(&map), "-o", s(&level), "--no-vis"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let prt = level.with_extension("prt");
+    // `vis` and `compile` each interrupted after one batch, then resumed from tampered states.
+    let state = dir.join("run.state");
+    let vis_args = ["vis", s(&prt), "--threads", "2", "--state", s(&state)];
+    let compile_args = ["compile", s(&map), "-o", s(&level), "--threads", "2", "--state", s(&state)];
+    for args in [&vis_args[..], &compile_args[..]] {
+        let _ = std::fs::remove_file(&state);
+        let stop = run(&[args, &["--stop-after", "1"]].concat());
+        assert_eq!(code(&stop), 2, "interrupted: {}", stderr(&stop));
+        let saved = std::fs::read(&state).expect("state saved");
+        for (what, bytes) in tampered_states(&saved) {
+            std::fs::write(&state, &bytes).expect("write");
+            let o = run_within_two_minutes(bin().args(args));
+            let err = stderr(&o);
+            assert_eq!(code(&o), 2, "{} with {what}: {err}", args[0]);
+            assert!(err.contains("run.state") && !err.contains("panicked"), "{} with {what}: {err}", args[0]);
+        }
+        // The untouched state still resumes.
+        std::fs::write(&state, &saved).expect("write");
+        let o = run(args);
+        assert_eq!(code(&o), 0, "{}: {}", args[0], stderr(&o));
+        assert!(!state.exists(), "a finished run removes its state");
+    }
+}
+
+// ---- Errors name their file and place, once; inputs Quake's tools accept are accepted ----
+
+/// A minimal BSP29 and its PRT1 (LF line breaks): the plane x = 0 splits the world into two open
+/// leaves (1: x > 0, 2: x < 0) that see each other through one portal; one PVS byte, no faces.
+fn tiny_bsp() -> (Vec<u8>, String) {
+    use sightline_formats::bsp::{HEADER_BYTES, NUM_LUMPS, lump};
+    let mut lumps: Vec<Vec<u8>> = vec![Vec::new(); NUM_LUMPS];
+    lumps[lump::ENTITIES] = b"{\n\"classname\" \"worldspawn\"\n}\n\0".to_vec();
+    lumps[lump::PLANES] =
+        [1f32, 0.0, 0.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).chain(0i32.to_le_bytes()).collect();
+    lumps[lump::VISIBILITY] = vec![0b11];
+    let mut node = 0i32.to_le_bytes().to_vec();
+    for v in [-2i16, -3, -64, -64, 0, 64, 64, 64, 0, 0] {
+        node.extend(v.to_le_bytes());
+    }
+    lumps[lump::NODES] = node;
+    let leaf = |contents: i32, visofs: i32, bounds: [i16; 6]| {
+        let mut l = contents.to_le_bytes().to_vec();
+        l.extend(visofs.to_le_bytes());
+        bounds.iter().for_each(|v| l.extend(v.to_le_bytes()));
+        l.extend([0u8; 8]);
+        l
+    };
+    lumps[lump::LEAVES] =
+        [leaf(-2, -1, [0; 6]), leaf(-1, 0, [0, -64, 0, 64, 64, 64]), leaf(-1, 0, [-64, -64, 0, 0, 64, 64])]
+            .concat();
+    let mut model: Vec<u8> =
+        [-64f32, -64.0, 0.0, 64.0, 64.0, 64.0, 0.0, 0.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).collect();
+    [0i32, -1, -1, -1, 2, 0, 0].iter().for_each(|v| model.extend(v.to_le_bytes()));
+    lumps[lump::MODELS] = model;
+    let mut out = vec![0u8; HEADER_BYTES];
+    out[..4].copy_from_slice(&29i32.to_le_bytes());
+    for (i, data) in lumps.iter().enumerate() {
+        out.resize(out.len().next_multiple_of(4), 0);
+        let entry = [out.len() as i32, data.len() as i32];
+        out[4 + 8 * i..12 + 8 * i]
+            .copy_from_slice(&[entry[0].to_le_bytes(), entry[1].to_le_bytes()].concat());
+        out.extend_from_slice(data);
+    }
+    let prt = "PRT1\n2\n1\n4 0 1 (0 -64 0) (0 64 0) (0 64 64) (0 -64 64)\n".to_string();
+    (out, prt)
+}
+
+/// The `error: ` line of a failed command, asserting that no part of it (anyhow's `{:#}` joins an
+/// error and its causes with ": ") repeats: a cause repeated in its parent's message shows twice.
+fn error_line(o: &Output) -> String {
+    let err = stderr(o);
+    let line =
+        err.lines().find_map(|l| l.strip_prefix("error: ")).unwrap_or_else(|| panic!("no error: {err}"));
+    let parts: Vec<&str> = line.split(": ").filter(|p| p.len() >= 4).collect();
+    for (i, p) in parts.iter().enumerate() {
+        assert!(!parts[i + 1..].contains(p), "`{p}` is printed twice: {line}");
+    }
+    line.to_string()
+}
+
+#[test]
+fn a_level_without_models_is_an_error_naming_the_file_and_the_lump() {
+    use sightline_formats::slvl;
+    let dir = temp_dir("no-models");
+    let level_path = compile(&dir, "room.map");
+    let mut level = slvl::read(&std::fs::read(&level_path).expect("read level")).expect("our own level");
+    level.models.clear();
+    let bad = dir.join("modelless.slvl");
+    std::fs::write(&bad, slvl::write(&level, &slvl::WriteOptions::default())).expect("write");
+    let png = dir.join("x.png");
+    for args in [
+        &["validate", s(&bad), "--rays", "1000"][..],
+        &["render", s(&bad), "--plan", "--size", "8x8", "-o", s(&png)],
+        &["bench", s(&bad), "--frames", "1"],
+    ] {
+        let o = run(args);
+        assert_eq!(code(&o), 2, "{args:?}: {}", stderr(&o));
+        let line = error_line(&o);
+        assert!(line.starts_with(&format!("{}: ", bad.display())), "{args:?} names the file first: {line}");
+        assert!(line.contains("models lump is empty"), "{args:?} names the lump: {line}");
+    }
+}
+
+#[test]
+fn a_bsp_whose_visdata_overlaps_another_lump_is_refused_before_vis_runs() {
+    use sightline_formats::bsp::{self, lump};
+    let dir = temp_dir("overlap");
+    let (mut bytes, prt) = tiny_bsp();
+    let lumps = bsp::read(&bytes).expect("tiny BSP").lumps;
+    let (vis, nodes) = (lumps[lump::VISIBILITY], lumps[lump::NODES]);
+    // The visibility lump runs on over the nodes lump: readable, but vis would overwrite nodes.
+    let at = 4 + 8 * lump::VISIBILITY + 4;
+    bytes[at..at + 4].copy_from_slice(&((nodes.end() - vis.offset) as i32).to_le_bytes());
+    bsp::read(&bytes).expect("still a readable BSP");
+    let path = dir.join("overlap.bsp");
+    std::fs::write(&path, &bytes).expect("write");
+    std::fs::write(dir.join("overlap.prt"), prt).expect("write");
+    let o = run(&["vis", s(&path), "--threads", "1"]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    let line = error_line(&o);
+    assert!(line.starts_with(&format!("{}: ", path.display())), "{line}");
+    let ranges = format!(
+        "lump visibility (bytes {}..{}) overlaps lump nodes (bytes {}..{})",
+        vis.offset,
+        nodes.end(),
+        nodes.offset,
+        nodes.end()
+    );
+    assert!(line.contains(&ranges), "names both lumps and their bytes: {line}");
+    assert!(!stderr(&o).contains("portals"), "refused before any vis work: {}", stderr(&o));
+    assert_eq!(std::fs::read(&path).expect("read"), bytes, "the file is untouched");
+}
+
+#[test]
+fn compile_checks_its_output_folder_before_compiling() {
+    let dir = temp_dir("out-dir");
+    // leak.map would compile to a finding (exit 1): exit 2 shows nothing was compiled.
+    let input = maps().join("leak.map");
+    let missing = dir.join("no/such/folder/leak.slvl");
+    let o = run(&["compile", s(&input), "-o", s(&missing)]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    let line = error_line(&o);
+    assert!(line.contains(&dir.join("no/such/folder").display().to_string()), "names the folder: {line}");
+    assert!(o.stdout.is_empty());
+    let file = dir.join("a-file");
+    std::fs::write(&file, "x").expect("write");
+    let o = run(&["compile", s(&input), "-o", s(&file.join("leak.slvl"))]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(error_line(&o).contains("is not a folder"), "{}", stderr(&o));
+    let o = run(&["compile", s(&input), "-o", s(&dir)]);
+    assert_eq!(code(&o), 2, "an output that is a folder: {}", stderr(&o));
+    let mut left: Vec<_> =
+        std::fs::read_dir(&dir).expect("dir").map(|e| e.expect("entry").file_name()).collect();
+    left.sort();
+    assert_eq!(left, ["a-file"], "the checks leave nothing behind");
+}
+
+#[test]
+fn a_map_with_high_bit_bytes_in_strings_compiles_and_keeps_them() {
+    use sightline_formats::{map, slvl};
+    let dir = temp_dir("latin1");
+    let room = std::fs::read(maps().join("room.map")).expect("room.map");
+    let text = String::from_utf8(room).expect("room.map is UTF-8");
+    let (head, tail) = text.split_once("\"classname\" \"worldspawn\"\n").expect("worldspawn");
+    let gold: Vec<u8> = (0x80..=0xFFu8).filter(|&b| b != b'"').collect();
+    let mut bytes = format!("{head}\"classname\" \"worldspawn\"\n\"message\" \"").into_bytes();
+    bytes.extend_from_slice(&gold);
+    bytes.extend_from_slice(b"\"\n");
+    bytes.extend_from_slice(tail.as_bytes());
+    assert!(std::str::from_utf8(&bytes).is_err(), "the map is not UTF-8");
+    let input = dir.join("gold.map");
+    std::fs::write(&input, &bytes).expect("write");
+    let out = dir.join("gold.slvl");
+    let o = run(&["compile", s(&input), "-o", s(&out), "--threads", "2"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    // The level's entity text holds each byte as the character of the same code (Latin-1).
+    let level = slvl::read(&std::fs::read(&out).expect("level")).expect("valid level");
+    let message =
+        level.entities.split('\n').find_map(|l| l.strip_prefix("\"message\" \"")).expect("message kept");
+    let message = message.strip_suffix('"').expect("quoted");
+    assert_eq!(map::encode_latin1(message), Some(gold), "every byte comes back");
+    let o = run(&["info", s(&input), "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(stdout_json(&o)["kind"], "map");
+}
+
+#[test]
+fn zero_rays_is_an_argument_error() {
+    let dir = temp_dir("rays");
+    let level = compile(&dir, "room.map");
+    for args in [
+        &["validate", s(&level), "--rays", "0"][..],
+        &["render", s(&level), "--pvs-matrix", "--rays", "0", "-o", s(&dir.join("m.png"))],
+    ] {
+        let o = run(args);
+        assert_eq!(code(&o), 2, "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--rays"), "names the argument: {}", stderr(&o));
+        assert!(
+            o.stdout.is_empty(),
+            "nothing validated, nothing reported: {}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+    }
+    let o = run(&["validate", s(&level), "--rays", "1", "--json"]);
+    assert_eq!(code(&o), 0, "one ray is a budget: {}", stderr(&o));
+}
+
+/// Backends `bench --json` ran.
+fn bench_backends(path: &Path) -> Vec<String> {
+    let o = run(&["bench", s(path), "--frames", "20", "--json"]);
+    assert_eq!(code(&o), 0, "bench {}: {}", path.display(), stderr(&o));
+    let j = stdout_json(&o);
+    let list = j["backends"].as_array().expect("backends");
+    list.iter().map(|b| b["backend"].as_str().expect("name").to_string()).collect()
+}
+
+#[test]
+fn bench_and_vis_read_a_crlf_portal_file_alike() {
+    let dir = temp_dir("crlf");
+    let (bsp, prt) = tiny_bsp();
+    let path = dir.join("tiny.bsp");
+    std::fs::write(&path, &bsp).expect("write");
+    assert_eq!(bench_backends(&path), ["pvs"], "no portal file: no portal backend");
+    std::fs::write(dir.join("tiny.prt"), prt.replace('\n', "\r\n")).expect("write");
+    assert_eq!(bench_backends(&path), ["pvs", "portal"], "the CRLF PRT1 gives the portal backend its portal");
+    let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(stdout_json(&o)["prt_format"], "PRT1");
+}
+
+#[test]
+fn vis_and_bench_find_the_portal_file_of_a_vis_bsp_by_one_rule() {
+    let dir = temp_dir("vis-bsp");
+    let (bsp, prt) = tiny_bsp();
+    let path = dir.join("tiny.vis.bsp");
+    std::fs::write(&path, &bsp).expect("write");
+    // Neither NAME.vis.prt nor NAME.prt: both are named.
+    let o = run(&["vis", s(&path), "--threads", "1"]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    let line = error_line(&o);
+    for p in [dir.join("tiny.vis.prt"), dir.join("tiny.prt")] {
+        assert!(line.contains(&p.display().to_string()), "names {}: {line}", p.display());
+    }
+    // NAME.prt beside NAME.vis.bsp (what a compiler leaves when a copy is vised).
+    std::fs::write(dir.join("tiny.prt"), &prt).expect("write");
+    let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(bench_backends(&path), ["pvs", "portal"]);
+    // NAME.vis.prt comes first: a PRT2 there is what both use (vis reads it, the portal backend
+    // needs PRT1 and so does not run).
+    let prt2 = "PRT2\n2\n2\n1\n4 0 1 (0 -64 0) (0 64 0) (0 64 64) (0 -64 64)\n0 -1\n1 -1\n";
+    std::fs::write(dir.join("tiny.vis.prt"), prt2).expect("write");
+    let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(stdout_json(&o)["prt_format"], "PRT2");
+    assert_eq!(bench_backends(&path), ["pvs"]);
+}
+
+#[test]
+fn a_bad_polygon_is_reported_once() {
+    let dir = temp_dir("polygon");
+    let map = dir.join("flat.map");
+    let text = "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 1 0 0 ) ( 2 0 0 ) T 0 0 0 1 1\n}\n}\n";
+    std::fs::write(&map, text).expect("write");
+    let obj = dir.join("empty-face.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n").expect("write");
+    for (input, place, phrase) in
+        [(&map, "flat.map:4:1", "degenerate plane"), (&obj, "empty-face.obj:4", "invalid polygon")]
+    {
+        for cmd in ["compile", "info"] {
+            let o = run(&[cmd, s(input)]);
+            assert_eq!(code(&o), 2, "{cmd}: {}", stderr(&o));
+            let line = error_line(&o);
+            assert_eq!(line.matches(phrase).count(), 1, "{cmd}: `{phrase}` once: {line}");
+            assert!(line.contains(place), "{cmd} names the place: {line}");
+        }
+    }
+}

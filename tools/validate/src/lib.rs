@@ -67,7 +67,7 @@ pub const DEFAULT_RAYS: u64 = 16_000_000;
 #[non_exhaustive]
 pub enum ValidateError {
     /// The level has no models, so no world tree.
-    #[error("level has no models (no world tree)")]
+    #[error("the models lump is empty: the level has no world model (model 0) and so no tree")]
     NoWorldTree,
     /// A tree child names a leaf past the end of the leaves.
     #[error("tree refers to leaf {leaf} but the level has {leaves} leaves")]

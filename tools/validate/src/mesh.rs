@@ -23,7 +23,7 @@ use super::sample::RayOracle;
 #[non_exhaustive]
 pub enum MeshError {
     /// The level has no models.
-    #[error("level has no world model")]
+    #[error("the models lump is empty: the level has no world model (model 0)")]
     NoWorldModel,
     /// The world model's face range lies outside the level's faces.
     #[error("world model's faces are out of range")]

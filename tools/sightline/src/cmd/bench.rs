@@ -24,8 +24,9 @@ use crate::cli::Outcome;
 /// Arguments of `sightline bench`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Level (`.slvl`) or Quake map (`.bsp`; a PRT1 `NAME.prt` beside it gives the portal backend
-    /// its portals).
+    /// Level (`.slvl`) or Quake map (`.bsp`; a PRT1 portal file beside it, found as `vis` finds
+    /// it: `NAME.prt`, or for `NAME.vis.bsp` `NAME.vis.prt` then `NAME.prt`, gives the portal
+    /// backend its portals).
     pub input: PathBuf,
     /// Camera poses (frames) per backend.
     #[arg(long, default_value_t = 10_000)]
@@ -85,8 +86,8 @@ struct Report {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
-    let mut world =
-        load::load_path(&args.input).with_context(|| format!("loading {}", args.input.display()))?;
+    // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
+    let mut world = load::load_path(&args.input)?;
     if args.no_pvs_trees {
         world.drop_pvs_trees();
     }

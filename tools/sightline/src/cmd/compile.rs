@@ -2,14 +2,15 @@
 //! (`.prt`) and, unless `--no-vis`, the PVS.
 //!
 //! Exit codes: 0 compiled, 1 the map leaks (`<out>.pts` holds the path from the entity to the
-//! void), 2 an error. Files are written atomically (temporary file, then rename).
+//! void), 2 an error. Files are written atomically (temporary file, then rename); an output folder
+//! that is missing or takes no files is an error before anything is compiled.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
-use sightline_formats::atomic::write_file_atomic;
+use sightline_formats::atomic::{check_writable, write_file_atomic};
 
 use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;
@@ -66,8 +67,11 @@ fn print_leak(leak: &LeakReport, pts: &Path) {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let source = Source::read(&args.input)?;
     let out = args.output.clone().unwrap_or_else(|| with_extension(&args.input, "slvl"));
+    // The level, portal file and pointfile all go into the output's folder: check up front that it
+    // takes files, rather than after the whole compile.
+    check_writable(&out).with_context(|| format!("cannot write the output {}", out.display()))?;
+    let source = Source::read(&args.input)?;
     let prt_path = with_extension(&out, "prt");
     let pts_path = with_extension(&out, "pts");
     let opts = CompileOptions {

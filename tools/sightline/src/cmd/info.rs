@@ -169,7 +169,8 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
     let kind = FileKind::detect(path, &bytes)
         .with_context(|| format!("{name}: unknown file kind (expected .map, .obj, .prt, .bsp or .slvl)"))?;
     let details = match kind {
-        FileKind::Map => map_details(&text_of(&bytes, &name)?, &name)?,
+        // A `.map` may hold bytes that are not UTF-8 (Quake's high-bit characters in strings).
+        FileKind::Map => map_details(&map::decode(&bytes), &name)?,
         FileKind::Obj => {
             let mesh = obj::load_from_bytes(&bytes, &name)?;
             Details::Obj {
@@ -178,17 +179,12 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
                 bounds: Bounds::from_aabb(&mesh.bounds()),
             }
         }
-        FileKind::Prt => prt_details(&prt::read(&text_of(&bytes, &name)?, &name)?),
+        FileKind::Prt => prt_details(&prt::read_bytes(&bytes, &name)?),
         FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
             .with_context(|| format!("{name}: bad PVS row"))?,
         FileKind::Slvl => slvl_details(&bytes).with_context(|| format!("{name}: invalid level"))?,
     };
     Ok(InfoReport { file: name, details })
-}
-
-fn text_of(bytes: &[u8], name: &str) -> anyhow::Result<String> {
-    String::from_utf8(bytes.to_vec())
-        .map_err(|e| anyhow::anyhow!("{name}: byte {}: not UTF-8 text", e.utf8_error().valid_up_to()))
 }
 
 fn map_details(text: &str, name: &str) -> anyhow::Result<Details> {

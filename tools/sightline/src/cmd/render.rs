@@ -68,7 +68,7 @@ pub struct Args {
     pub pvs_matrix: bool,
     /// With `--pvs-matrix`: sample this many rays (tree oracle, as `validate`) and colour the
     /// pairs they prove green, the other PVS pairs grey and sampled pairs missing from the PVS red.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub rays: Option<u64>,
 }
 
@@ -79,8 +79,8 @@ fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>
         return Ok((load::load_level(path)?, None));
     }
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
-    let map = sightline_formats::map::parse(&text, &name)?;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {name}"))?;
+    let map = sightline_formats::map::parse_bytes(&bytes, &name)?;
     let opts = CompileOptions { allow_leak: true, ..CompileOptions::default() };
     let compiled = compile(&Source::Map { map, file: name }, &opts, &NoProgress)?;
     Ok((compiled.level, compiled.leak.map(|l| l.path)))
@@ -127,8 +127,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
     }
     let (level, compiled_leak) = load_any(&args.input)?;
-    let tree = BspTree::new(&level)?;
-    let pvs = pvs::level_pvs(&level)?;
+    // Errors about the level name its file (the libraries only see the level).
+    let file = || args.input.display().to_string();
+    let tree = BspTree::new(&level).with_context(file)?;
+    let pvs = pvs::level_pvs(&level).with_context(file)?;
     let (w, h) = size(&args.size)?;
     let (yaw, pitch) =
         args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
@@ -151,7 +153,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let sampled = match args.rays {
             Some(rays) => {
                 let opts = Options { rays, oracle: OracleChoice::Tree, ..Options::default() };
-                let mut v = validate::validate(&level, &pvs, &opts, &Bars::new(false))?;
+                let mut v = validate::validate(&level, &pvs, &opts, &Bars::new(false)).with_context(file)?;
                 let misses = v.report.misses();
                 println!(
                     "{} pairs proved by {rays} rays, {misses} misses",
@@ -172,8 +174,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
                 compiled_leak.context("--leak without a file needs a leaking .map as input")?
             }
             Some(p) => {
-                let text = std::fs::read_to_string(p).with_context(|| format!("reading {p}"))?;
-                read_pointfile(&text, p)?
+                let bytes = std::fs::read(p).with_context(|| format!("reading {p}"))?;
+                read_pointfile(&String::from_utf8_lossy(&bytes), p)?
             }
             None => Vec::new(),
         };
@@ -195,8 +197,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             .map(|v| v.iter().map(|c| DVec3::from(c.map(f64::from))).collect())
             .collect();
         if let Some(prt) = &args.prt {
-            let text = std::fs::read_to_string(prt).with_context(|| format!("reading {}", prt.display()))?;
-            let file = sightline_formats::prt::read(&text, &prt.display().to_string())?;
+            let bytes = std::fs::read(prt).with_context(|| format!("reading {}", prt.display()))?;
+            let file = sightline_formats::prt::read_bytes(&bytes, &prt.display().to_string())?;
             portals.extend(file.portals.into_iter().map(|p| p.winding.points));
         }
         let camera = match (from, &args.look) {

@@ -1,5 +1,7 @@
 //! `sightline validate`: prove a PVS conservative by ray sampling and measure how tight it is.
 
+use anyhow::Context;
+
 use crate::cli::Outcome;
 use crate::progress::Bars;
 use sightline_validate::{self as validate, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
@@ -31,8 +33,9 @@ pub struct Args {
     /// A Quake `.bsp` with visdata, or a Sightline `.slvl`.
     pub input: std::path::PathBuf,
     /// Ray budget per oracle, spread evenly over the open leaves (10 rays per bundle: 5 lines
-    /// cast both ways).
-    #[arg(long, default_value_t = DEFAULT_RAYS)]
+    /// cast both ways); at least 1 (every open leaf gets at least one bundle, so a small budget
+    /// still casts rays from each).
+    #[arg(long, default_value_t = DEFAULT_RAYS, value_parser = clap::value_parser!(u64).range(1..))]
     pub rays: u64,
     /// Seed of the random streams (results are identical for any thread count).
     #[arg(long, default_value_t = 1)]
@@ -58,13 +61,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         anyhow::bail!("--offset must be in [0, 64) world units, got {}", args.offset);
     }
     let level = load::load_level(&args.input)?;
+    // Errors about the level name its file (the library only sees the level).
+    let file = || args.input.display().to_string();
     if !level.has_vis() {
-        eprintln!("note: {} has no PVS (everything visible): nothing can be missed", args.input.display());
+        eprintln!("note: {} has no PVS (everything visible): nothing can be missed", file());
     }
-    let pvs = pvs::level_pvs(&level)?;
+    let pvs = pvs::level_pvs(&level).with_context(file)?;
     let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: args.oracle.into() };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
-    let mut v = pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json)))?;
+    let mut v =
+        pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;
     v.report.input = args.input.display().to_string();
     if args.json {
         println!("{}", serde_json::to_string_pretty(&v.report)?);

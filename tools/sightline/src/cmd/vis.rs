@@ -5,8 +5,16 @@
 //! and writes them into the `.bsp` (its module docs give the drop-in rules), and
 //! [`sightline_formats::visfile`] is the `.vis` file. This module parses the arguments, handles
 //! Ctrl-C, draws progress and prints the report.
+//!
+//! # The ericw-tools / id command line
+//! `sightline vis` also takes the command line of ericw-tools' and id's `vis`, as TrenchBroom
+//! compile profiles and build scripts pass it: a base name (`e1m1` reads `e1m1.bsp` when `e1m1`
+//! is not a file, see [`resolve_input`]) and single-dash options anywhere on the line. Before clap
+//! parses, [`ericw_args`] turns each one into the `--` flag it means ([`ERICW_OPTIONS`]), drops
+//! those that only steer the reference tool's logging, and rejects any other single-dash word.
 
-use std::path::PathBuf;
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
@@ -16,13 +24,20 @@ use anyhow::{Context, bail};
 use sightline_compiler::vis::{self, VisOptions, VisPhase, VisProgress, VisResult, VisStats};
 use sightline_compiler::visdata::{self, Rows, VisInput};
 use sightline_formats::prt::PortalFile;
+use sightline_formats::texture::Ambient;
 
 use crate::cli::Outcome;
 
 /// Arguments of `sightline vis`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = "ericw-tools / id vis command lines work too: `sightline vis -threads 4 -fast e1m1` \
+reads e1m1.bsp; single-dash options (-threads N, -fast, -level N, -noambient, -noambientsky, \
+-noambientwater, -noambientslime, -noambientlava, -visdist N / -farplane N, -nostate, -noprogress) \
+may come before or after the file, and -v, -verbose, -nolog, -nopercent, -nostat and other \
+logging options are accepted and ignored.")]
 pub struct Args {
-    /// A Quake `.bsp` (its `.prt` must sit beside it) or a `.prt` file.
+    /// A Quake `.bsp` (its `.prt` must sit beside it), a base name (`e1m1` for `e1m1.bsp`), or a
+    /// `.prt` file.
     pub input: PathBuf,
     /// Worker threads (0: every core). The result is the same for any count.
     #[arg(long, default_value_t = 0)]
@@ -30,9 +45,211 @@ pub struct Args {
     /// Vis options.
     #[command(flatten)]
     pub vis: VisFlags,
+    /// Far plane: after vis, clusters whose bounding boxes are more than this many units apart
+    /// stop seeing each other (nothing within the distance is hidden); 0 turns it off. Needs a
+    /// `.bsp` (for its leaf bounds).
+    #[arg(
+        long,
+        visible_alias = "visdist",
+        value_name = "UNITS",
+        value_parser = parse_distance,
+        allow_negative_numbers = true
+    )]
+    pub farplane: Option<f64>,
+    /// Write every ambient sound level as 0.
+    #[arg(long)]
+    pub no_ambient: bool,
+    /// No ambient sky sound.
+    #[arg(long)]
+    pub no_ambient_sky: bool,
+    /// No ambient water sound.
+    #[arg(long)]
+    pub no_ambient_water: bool,
+    /// No ambient slime sound.
+    #[arg(long)]
+    pub no_ambient_slime: bool,
+    /// No ambient lava sound.
+    #[arg(long)]
+    pub no_ambient_lava: bool,
+    /// Start afresh: delete the `--state` file first instead of resuming from it.
+    #[arg(long)]
+    pub no_state: bool,
+    /// Draw no progress bars.
+    #[arg(long)]
+    pub no_progress: bool,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+impl Args {
+    /// The ambient sounds switched off, indexed by [`Ambient::index`].
+    pub fn ambient_off(&self) -> [bool; 4] {
+        let mut off = [self.no_ambient; 4];
+        for (sound, flag) in [
+            (Ambient::Water, self.no_ambient_water),
+            (Ambient::Sky, self.no_ambient_sky),
+            (Ambient::Slime, self.no_ambient_slime),
+            (Ambient::Lava, self.no_ambient_lava),
+        ] {
+            off[sound.index()] |= flag;
+        }
+        off
+    }
+}
+
+/// A far-plane distance: a number >= 0 (0 is off).
+fn parse_distance(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(d) if d.is_finite() && d >= 0.0 => Ok(d),
+        _ => Err(format!("`{s}` is not a distance (a number of units >= 0)")),
+    }
+}
+
+/// What one option of ericw-tools' or id's `vis` becomes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EricwOption {
+    /// A Sightline flag without a value.
+    Flag(&'static str),
+    /// A Sightline flag that takes the next word as its value.
+    Value(&'static str),
+    /// Accepted and ignored (logging and other reference-tool settings that change no output).
+    Ignored,
+    /// Accepted and ignored with the next word (its value).
+    IgnoredWithValue,
+    /// Accepted and ignored, and so is the next word when it is a number (`-lowpriority [0]`).
+    IgnoredOptionalNumber,
+}
+
+/// The single-dash options `sightline vis` takes (names as ericw-tools spells them; matched
+/// without regard to case), and what each becomes.
+pub const ERICW_OPTIONS: &[(&str, EricwOption)] = &[
+    ("threads", EricwOption::Value("--threads")),
+    ("fast", EricwOption::Flag("--fast")),
+    ("level", EricwOption::Value("--level")),
+    ("visdist", EricwOption::Value("--farplane")),
+    ("farplane", EricwOption::Value("--farplane")),
+    ("noambient", EricwOption::Flag("--no-ambient")),
+    ("noambientsky", EricwOption::Flag("--no-ambient-sky")),
+    ("noambientwater", EricwOption::Flag("--no-ambient-water")),
+    ("noambientslime", EricwOption::Flag("--no-ambient-slime")),
+    ("noambientlava", EricwOption::Flag("--no-ambient-lava")),
+    ("nostate", EricwOption::Flag("--no-state")),
+    ("noprogress", EricwOption::Flag("--no-progress")),
+    ("help", EricwOption::Flag("--help")),
+    // ericw-tools: "-quiet / -noverbose: -nopercent -nostat -noprogress".
+    ("quiet", EricwOption::Flag("--no-progress")),
+    ("noverbose", EricwOption::Flag("--no-progress")),
+    ("nopercent", EricwOption::Ignored),
+    ("nostat", EricwOption::Ignored),
+    ("v", EricwOption::Ignored),
+    ("vv", EricwOption::Ignored),
+    ("verbose", EricwOption::Ignored),
+    ("log", EricwOption::Ignored),
+    ("nolog", EricwOption::Ignored),
+    ("nocolor", EricwOption::Ignored),
+    ("autoclean", EricwOption::Ignored),
+    ("noautoclean", EricwOption::Ignored),
+    ("defaultpaths", EricwOption::Ignored),
+    ("nodefaultpaths", EricwOption::Ignored),
+    ("lowpriority", EricwOption::IgnoredOptionalNumber),
+    // Game and search paths: ericw-tools' vis reads no texture through them for Quake maps.
+    ("gamedir", EricwOption::IgnoredWithValue),
+    ("basedir", EricwOption::IgnoredWithValue),
+    ("path", EricwOption::IgnoredWithValue),
+    ("filepriority", EricwOption::IgnoredWithValue),
+];
+
+/// The arguments after `vis` with ericw-tools / id single-dash options turned into Sightline's
+/// (see [`ERICW_OPTIONS`]). Everything else passes through unchanged: `--` flags (with the next
+/// word when `long_takes_value` says the flag takes one and it is not given as `--flag=value`),
+/// the short flags in `shorts` (clap's, such as `-h`), numbers, and every word after `--`.
+/// Errors name an unknown single-dash word, or an option missing its value.
+pub fn ericw_args(
+    words: &[OsString],
+    long_takes_value: &dyn Fn(&str) -> bool,
+    shorts: &[char],
+) -> Result<Vec<OsString>, String> {
+    let mut out = Vec::with_capacity(words.len());
+    let mut i = 0;
+    while i < words.len() {
+        let word = &words[i];
+        i += 1;
+        let Some(s) = word.to_str() else {
+            out.push(word.clone());
+            continue;
+        };
+        if s == "--" {
+            out.extend(words[i - 1..].iter().cloned());
+            break;
+        }
+        if let Some(long) = s.strip_prefix("--") {
+            out.push(word.clone());
+            if !long.contains('=') && long_takes_value(long) && i < words.len() {
+                out.push(words[i].clone());
+                i += 1;
+            }
+            continue;
+        }
+        let Some(name) = s.strip_prefix('-').filter(|n| !n.is_empty() && s.parse::<f64>().is_err()) else {
+            out.push(word.clone());
+            continue;
+        };
+        let mut chars = name.chars();
+        if let (Some(c), None) = (chars.next(), chars.next())
+            && shorts.contains(&c)
+        {
+            out.push(word.clone());
+            continue;
+        }
+        let lower = name.to_ascii_lowercase();
+        let Some(&(_, option)) = ERICW_OPTIONS.iter().find(|(n, _)| *n == lower) else {
+            return Err(format!(
+                "unknown vis option `{s}` (ericw-tools options such as -threads N, -fast, -level N, \
+                 -noambient, -visdist N are taken; see `sightline vis --help`)"
+            ));
+        };
+        let next = words.get(i);
+        match option {
+            EricwOption::Flag(long) => out.push(long.into()),
+            EricwOption::Value(long) => {
+                let Some(value) = next else { return Err(format!("vis option `{s}` needs a value")) };
+                out.push(long.into());
+                out.push(value.clone());
+                i += 1;
+            }
+            EricwOption::Ignored => {}
+            EricwOption::IgnoredWithValue => {
+                if next.is_none() {
+                    return Err(format!("vis option `{s}` needs a value"));
+                }
+                i += 1;
+            }
+            EricwOption::IgnoredOptionalNumber => {
+                if next.and_then(|v| v.to_str()).is_some_and(|v| v.parse::<i64>().is_ok()) {
+                    i += 1;
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The file a `vis` input names: `NAME.bsp` for a base name `NAME` (not a file itself, not
+/// ending in `.bsp` or `.prt`, and `NAME.bsp` is a file; `e1m1` or `e1m1.final`), else the input
+/// itself.
+pub fn resolve_input(input: &Path) -> PathBuf {
+    let named =
+        input.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp") || e.eq_ignore_ascii_case("prt"));
+    if !named && !input.is_file() {
+        let mut bsp = input.as_os_str().to_owned();
+        bsp.push(".bsp");
+        let bsp = PathBuf::from(bsp);
+        if bsp.is_file() {
+            return bsp;
+        }
+    }
+    input.to_path_buf()
 }
 
 /// The vis flags that `sightline vis` and `sightline compile` share.
@@ -81,7 +298,7 @@ impl VisFlags {
 /// What `sightline vis` reports (`--json` prints this).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Report {
-    /// Input file.
+    /// Input file (a base name resolved to its `.bsp`).
     pub input: String,
     /// File written (the `.bsp` itself, or the `.vis`).
     pub output: String,
@@ -91,6 +308,16 @@ pub struct Report {
     pub vis: VisStats,
     /// Bytes of compressed PVS rows written.
     pub compressed_bytes: usize,
+    /// The far plane applied, when one was.
+    pub farplane: Option<f64>,
+    /// Cluster pairs the far plane hid from each other.
+    pub farplane_hidden_pairs: u64,
+    /// Ambient sounds switched off (`water`, `sky`, `slime`, `lava`).
+    pub ambient_off: Vec<&'static str>,
+    /// The `NAME.texinfo.json` whose `noambient` flags were used.
+    pub texinfo_json: Option<String>,
+    /// Texinfos it flags `noambient`.
+    pub noambient_texinfos: usize,
     /// Seconds reading inputs.
     pub read_seconds: f64,
     /// Seconds compressing and writing.
@@ -102,32 +329,76 @@ pub struct Report {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
-    let input = VisInput::read(&args.input)?;
+    let path = resolve_input(&args.input);
+    let input = VisInput::read(&path)?;
+    let farplane = args.farplane.filter(|&d| d > 0.0);
+    if farplane.is_some() && input.bsp.is_none() {
+        bail!(
+            "{}: --farplane needs the .bsp (its leaf bounds bound what each cluster holds); run vis on the .bsp",
+            path.display()
+        );
+    }
+    let ambient = input.ambient_options(args.ambient_off());
+    let texinfo_side = input.bsp.as_ref().and_then(|b| b.texinfo_json.as_ref());
+    if let Some(side) = texinfo_side.filter(|s| !s.matches) {
+        eprintln!(
+            "warning: {} names texinfo {} but the BSP has {}: it belongs to another compile, its flags are ignored",
+            side.path.display(),
+            side.flags.max_texinfo.unwrap_or(0),
+            input.bsp.as_ref().map_or(0, |b| b.bsp.texinfo.len())
+        );
+    }
     let read_seconds = t0.elapsed().as_secs_f64();
+    if args.no_state
+        && let Some(state) = &args.vis.state
+    {
+        match std::fs::remove_file(state) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => {
+                return Err(e).with_context(|| format!("cannot delete {} (--no-state)", state.display()));
+            }
+        }
+    }
     let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-    let result = compute(&input.prt, &opts, args.json)?;
+    let mut result = compute(&input.prt, &opts, args.json || args.no_progress)?;
+    let mut farplane_hidden_pairs = 0;
+    if let (Some(d), Some(b)) = (farplane, &input.bsp) {
+        let boxes = visdata::cluster_boxes(&b.bsp, &input.prt);
+        farplane_hidden_pairs = vis::farplane::cull(&mut result, &boxes, d)?;
+    }
     let t1 = Instant::now();
     let rows = Rows::new(&result);
     let output = match &input.bsp {
         Some(b) => {
-            let out = visdata::write_into_bsp(&b.bytes, &b.bsp, &result, &rows)?;
-            sightline_formats::atomic::write_file_atomic(&args.input, &out)
-                .with_context(|| format!("cannot write {}", args.input.display()))?;
-            args.input.clone()
+            let out = visdata::write_into_bsp_with(&b.bytes, &b.bsp, &result, &rows, &ambient)?;
+            sightline_formats::atomic::write_file_atomic(&path, &out)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            path.clone()
         }
         None => {
-            let path = args.input.with_extension("vis");
-            sightline_formats::atomic::write_file_atomic(&path, &rows.vis_file()?)
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            path
+            let vis_path = path.with_extension("vis");
+            sightline_formats::atomic::write_file_atomic(&vis_path, &rows.vis_file()?)
+                .with_context(|| format!("cannot write {}", vis_path.display()))?;
+            vis_path
         }
     };
+    let used_side = texinfo_side.filter(|s| s.matches);
     let report = Report {
-        input: args.input.display().to_string(),
+        input: path.display().to_string(),
         output: output.display().to_string(),
         prt_format: input.prt.format.header().to_string(),
         vis: result.stats.clone(),
         compressed_bytes: rows.data.len(),
+        farplane,
+        farplane_hidden_pairs,
+        ambient_off: [Ambient::Water, Ambient::Sky, Ambient::Slime, Ambient::Lava]
+            .into_iter()
+            .filter(|a| ambient.off[a.index()])
+            .map(ambient_name)
+            .collect(),
+        texinfo_json: used_side.map(|s| s.path.display().to_string()),
+        noambient_texinfos: used_side.map_or(0, |s| s.flags.noambient.len()),
         read_seconds,
         write_seconds: t1.elapsed().as_secs_f64(),
         total_seconds: t0.elapsed().as_secs_f64(),
@@ -197,14 +468,34 @@ fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<V
     }
 }
 
+fn ambient_name(a: Ambient) -> &'static str {
+    match a {
+        Ambient::Water => "water",
+        Ambient::Sky => "sky",
+        Ambient::Slime => "slime",
+        Ambient::Lava => "lava",
+    }
+}
+
 fn text_report(r: &Report) -> String {
     let v = &r.vis;
+    let mut extra = String::new();
+    if let Some(d) = r.farplane {
+        extra += &format!("far plane {d}: {} cluster pairs hidden\n", r.farplane_hidden_pairs);
+    }
+    if !r.ambient_off.is_empty() {
+        extra += &format!("ambient sounds off: {}\n", r.ambient_off.join(", "));
+    }
+    if let Some(t) = &r.texinfo_json {
+        extra += &format!("{t}: {} texinfos make no ambient sound\n", r.noambient_texinfos);
+    }
     let mode = if v.fast { "fast (base vis only)".to_string() } else { format!("full, level {}", v.level) };
     format!(
         "{input} ({fmt}): {leaves} leaves, {clusters} clusters, {portals} portals{dropped}\n\
          vis {mode}, {threads} threads\n\
          visible leaves: average {avg:.1} ({pct:.1} %), median {med}, max {max}; base vis average {might:.1}\n\
          portal chains visited: {chains}{resumed}\n\
+         {extra}\
          compressed PVS: {bytes} bytes -> {output}\n\
          time: read {read:.3} s, base {base:.3} s, flow {flow:.3} s, rows {rows:.3} s, write {write:.3} s, total {total:.3} s\n",
         input = r.input,
@@ -238,4 +529,77 @@ fn text_report(r: &Report) -> String {
         write = r.write_seconds,
         total = r.total_seconds,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn translate(words: &[&str]) -> Result<Vec<String>, String> {
+        let words: Vec<OsString> = words.iter().map(OsString::from).collect();
+        let takes_value = |long: &str| matches!(long, "threads" | "state" | "level" | "farplane");
+        let out = ericw_args(&words, &takes_value, &['h', 'V'])?;
+        Ok(out.into_iter().map(|w| w.into_string().expect("utf-8")).collect())
+    }
+
+    #[test]
+    fn ericw_options_become_long_flags_and_the_rest_passes_through() {
+        assert_eq!(
+            translate(&["-threads", "4", "-Fast", "e1m1", "-level", "2", "-noambientsky", "-visdist", "900"]),
+            Ok(["--threads", "4", "--fast", "e1m1", "--level", "2", "--no-ambient-sky", "--farplane", "900"]
+                .map(String::from)
+                .to_vec())
+        );
+        // Ignored options vanish, with their value where they take one.
+        assert_eq!(
+            translate(&[
+                "-v",
+                "-nolog",
+                "-lowpriority",
+                "1",
+                "-basedir",
+                "/q",
+                "e1m1",
+                "-lowpriority",
+                "-nopercent"
+            ]),
+            Ok(vec!["e1m1".to_string()])
+        );
+        // Sightline's own flags and their values are never rewritten, nor anything after `--`;
+        // clap's short flags and negative numbers pass.
+        assert_eq!(
+            translate(&["--state", "-odd-name", "--threads=2", "-h", "--", "-fast", "-x"]),
+            Ok(["--state", "-odd-name", "--threads=2", "-h", "--", "-fast", "-x"].map(String::from).to_vec())
+        );
+        assert_eq!(translate(&["-farplane", "-5"]), Ok(vec!["--farplane".into(), "-5".into()]));
+        assert_eq!(translate(&["-1.5"]), Ok(vec!["-1.5".into()]));
+    }
+
+    #[test]
+    fn unknown_options_and_missing_values_are_errors_naming_them() {
+        let err = translate(&["e1m1", "-bogus"]).expect_err("unknown");
+        assert!(err.contains("`-bogus`"), "{err}");
+        let err = translate(&["e1m1", "-threads"]).expect_err("no value");
+        assert!(err.contains("`-threads`") && err.contains("value"), "{err}");
+        assert!(translate(&["-gamedir"]).is_err());
+        assert!(translate(&["-"]).is_ok(), "a lone dash is a word, not an option");
+    }
+
+    #[test]
+    fn a_base_name_resolves_to_its_bsp() {
+        let dir = std::env::temp_dir().join(format!("sightline-vis-resolve-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        for f in ["a.bsp", "b.final.bsp", "c", "c.bsp"] {
+            std::fs::write(dir.join(f), b"").expect("write");
+        }
+        let r =
+            |name: &str| resolve_input(&dir.join(name)).file_name().map(|n| n.to_string_lossy().into_owned());
+        assert_eq!(r("a").as_deref(), Some("a.bsp"));
+        assert_eq!(r("b.final").as_deref(), Some("b.final.bsp"));
+        assert_eq!(r("c").as_deref(), Some("c"), "an existing file is taken as it is");
+        assert_eq!(r("a.prt").as_deref(), Some("a.prt"), "named inputs are never rewritten");
+        assert_eq!(r("none").as_deref(), Some("none"), "nothing to resolve: the error names the input");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
