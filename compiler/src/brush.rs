@@ -89,6 +89,23 @@ impl Brush {
         specs: &[SideSpec],
         contents: Contents,
     ) -> Result<(Brush, Vec<Option<usize>>), BrushProblem> {
+        let (brush, map) = Self::from_planes_unbounded(planes, specs, contents)?;
+        if brush.bounds.mins.min_element() < -sightline_formats::geom::WORLD_LIMIT
+            || brush.bounds.maxs.max_element() > sightline_formats::geom::WORLD_LIMIT
+        {
+            return Err(BrushProblem::Unbounded);
+        }
+        Ok((brush, map))
+    }
+
+    /// [`Brush::from_planes`] without the [`WORLD_LIMIT`](sightline_formats::geom::WORLD_LIMIT)
+    /// check: for the compiler's own boxes, which reach a margin beyond the world's bounds (so
+    /// beyond the limit when the world touches it).
+    fn from_planes_unbounded(
+        planes: &PlaneSet,
+        specs: &[SideSpec],
+        contents: Contents,
+    ) -> Result<(Brush, Vec<Option<usize>>), BrushProblem> {
         let mut sides = Vec::with_capacity(specs.len());
         let mut map = vec![None; specs.len()];
         for (i, spec) in specs.iter().enumerate() {
@@ -121,13 +138,7 @@ impl Brush {
         if sides.is_empty() {
             return Err(BrushProblem::AllDegenerate);
         }
-        let brush = Brush { bounds: bounds_of(&sides), sides, contents, detail: false };
-        if brush.bounds.mins.min_element() < -sightline_formats::geom::WORLD_LIMIT
-            || brush.bounds.maxs.max_element() > sightline_formats::geom::WORLD_LIMIT
-        {
-            return Err(BrushProblem::Unbounded);
-        }
-        Ok((brush, map))
+        Ok((Brush { bounds: bounds_of(&sides), sides, contents, detail: false }, map))
     }
 
     /// An axis-aligned box brush.
@@ -141,7 +152,9 @@ impl Brush {
             specs.push(SideSpec { plane: planes.insert(max) as u32, hint: false });
             specs.push(SideSpec { plane: planes.insert(min) as u32, hint: false });
         }
-        let mut b = match Brush::from_planes(planes, &specs, contents) {
+        // Not `from_planes`: the outside volume reaches a margin beyond the world, which may lie
+        // beyond the coordinate limit; refusing it left an empty volume and a false leak.
+        let mut b = match Brush::from_planes_unbounded(planes, &specs, contents) {
             Ok((b, _)) => b,
             // A box always closes; an empty box yields an empty brush.
             Err(_) => Brush { sides: Vec::new(), bounds: *bounds, contents, detail: false },

@@ -13,11 +13,16 @@ pub mod contents;
 pub mod csg;
 pub mod emit;
 mod load;
+pub mod memory;
 pub mod mesh;
 pub mod outside;
+pub mod phs;
 pub mod portals;
 pub mod vis;
 pub mod visdata;
+
+#[cfg(test)]
+mod limit_tests;
 
 pub use sightline_formats::progress::{NoProgress, Progress};
 
@@ -109,6 +114,11 @@ pub struct CompileOptions {
     pub allow_leak: bool,
     /// Run vis on the portals and store the PVS in the level (`None`: stop after portals).
     pub vis: Option<vis::VisOptions>,
+    /// Refuse (with [`CompileError::Vis`] holding [`vis::VisError::Memory`]) a vis whose
+    /// [`vis::memory_estimate`] is above this many bytes, before allocating it (the smaller of
+    /// this and [`vis::VisOptions::max_memory`] applies; the memory the machine has available is
+    /// always a limit too).
+    pub max_memory: Option<u64>,
 }
 
 /// Time spent in one phase.
@@ -510,6 +520,10 @@ fn compile_here(
         if let Some(t) = opts.threads {
             vis_opts.threads = t.max(1);
         }
+        vis_opts.max_memory = match (vis_opts.max_memory, opts.max_memory) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         let result = vis::run(&out.prt, &vis_opts, &|p| bridge.report(p))?;
         if result.num_clusters() != level.num_clusters as usize {
             return Err(CompileError::VisClusters {

@@ -222,6 +222,62 @@ fn bsp_reader_survives_hostile_files() {
     assert!(rejected > 1000, "only {rejected} of 3000 mutated BSPs rejected");
 }
 
+#[test]
+fn q2_bsp_reader_survives_hostile_files() {
+    let (Some(small), Some(big)) = (shared("q2/q2_detail_leak_test.ericw.bsp"), shared("q2/dm2.ericw.bsp"))
+    else {
+        return;
+    };
+    let plain = shared("q2/q2_detail_leak_test.bsp").expect("q2_detail_leak_test.bsp");
+    let reads = |name: &str, inputs: &[Vec<u8>], count: usize| {
+        hammer(
+            name,
+            inputs,
+            count,
+            11,
+            |r, d| {
+                // Half of the mutations land in the visibility lump (counts, offsets, rows).
+                if r.below(2) == 0
+                    && let Ok(lumps) = bsp::q2::read_header(d)
+                {
+                    let v = lumps[bsp::q2::lump::VISIBILITY];
+                    let mut out = d.to_vec();
+                    let body = mutate(r, &d[v.offset..v.end()], 64);
+                    out.splice(v.offset..v.end(), body);
+                    return out;
+                }
+                mutate(r, d, bsp::q2::HEADER_BYTES)
+            },
+            linear_bound,
+            |data| {
+                // The Quake 1 reader names the format instead of misreading it.
+                if bsp::q2::is_q2(data) {
+                    assert!(matches!(bsp::read(data), Err(bsp::BspError::Quake2 { .. })));
+                }
+                match bsp::q2::read(data) {
+                    Ok(b) => {
+                        if let Some(vis) = &b.vis {
+                            // Decompressing every row is bounded by the clusters, not the input;
+                            // mutations keep the cluster count of a real file.
+                            if vis.num_clusters * vis.row_bytes() <= 8 * data.len() {
+                                let _ = vis.decode_all(bsp::q2::Q2Row::Pvs);
+                                if bsp::q2::check_vis_layout(&b.lumps).is_ok() {
+                                    let _ = sightline_compiler::phs::repair_phs(data);
+                                }
+                            }
+                            let _ = bsp::q2::write_with_visibility(data, &vis.data);
+                        }
+                        true
+                    }
+                    Err(_) => false,
+                }
+            },
+        )
+    };
+    let rejected = reads("q2 bsp", &[small, plain], 1000) + reads("q2 bsp (dm2)", &[big], 150);
+    assert!(rejected > 600, "only {rejected} of 2150 mutated Quake 2 BSPs rejected");
+}
+
 /// `.slvl` files expand lz4 lumps: the reader allows all lumps together
 /// `slvl::MAX_TOTAL_EXPANSION` times the file size plus 16 MiB, and parsed records take at most
 /// a few times their bytes, so the bound is wider than for the other readers.

@@ -35,6 +35,9 @@
 //!   continues after them, producing the same result as an uninterrupted run. The checkpoint is
 //!   the log of the batch boundaries (`state`), replayed and checked on resume: a damaged or
 //!   inconsistent file is a [`VisError::State`], never a different PVS.
+//! - **Fits, or refuses**: before allocating, [`memory_estimate`] bounds what the run will take
+//!   from the counts alone (portal and cluster bit matrices, per-thread rows, the graph); over the
+//!   memory available or [`VisOptions::max_memory`] the run is a [`VisError::Memory`] at once.
 //! - **Fails, never hangs**: a panic in a flow worker (or anywhere in a run) stops every worker
 //!   and returns [`VisError::Panicked`].
 
@@ -87,6 +90,10 @@ pub struct VisOptions {
     /// Stop the same way at the next batch boundary once this flag is set (for example by a
     /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
     pub cancel: Option<Arc<AtomicBool>>,
+    /// Refuse (with [`VisError::Memory`]) a run whose [`memory_estimate`] is above this many
+    /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
+    /// limit too.
+    pub max_memory: Option<u64>,
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
     pub(crate) panic_at: Option<usize>,
@@ -103,6 +110,7 @@ impl Default for VisOptions {
             checkpoint_interval: Duration::from_secs(180),
             stop_after: None,
             cancel: None,
+            max_memory: None,
             #[cfg(test)]
             panic_at: None,
         }
@@ -153,6 +161,20 @@ pub enum VisError {
     /// The thread pool could not be built.
     #[error("thread pool: {0}")]
     Threads(String),
+    /// The run would need more memory than is available or allowed; nothing was allocated.
+    #[error("{what} would need {need_text} for {reason}: more than the {limit_text} {source_of_limit}", need_text = crate::memory::format_size(*need), limit_text = crate::memory::format_size(*limit))]
+    Memory {
+        /// Estimated bytes ([`memory_estimate`]).
+        need: u64,
+        /// The limit in bytes.
+        limit: u64,
+        /// What needs it (`vis`, `vis --fast`).
+        what: String,
+        /// What the memory is for (the matrices and the counts that size them).
+        reason: String,
+        /// Where the limit comes from.
+        source_of_limit: crate::memory::LimitSource,
+    },
     /// A bug: vis panicked (in a flow worker or elsewhere); every worker was stopped.
     #[error("vis panicked (a bug; every worker was stopped): {0}")]
     Panicked(String),
@@ -276,6 +298,7 @@ pub fn run(
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
     check(prt)?;
+    check_memory(prt, opts)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
@@ -305,6 +328,68 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
         )));
     }
     Ok(())
+}
+
+/// Frames of flow recursion counted per thread by [`memory_estimate`] (each a row of `mightsee`
+/// words; deeper chains add a row each, small next to the portal matrices).
+const ESTIMATE_FRAMES: u128 = 64;
+
+/// An upper estimate of the bytes [`run`] allocates for `prt` with `opts`, computed from the
+/// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows, their copy in a
+/// checkpoint log), the cluster × cluster matrices (certified seeds, cluster rows, their
+/// snapshot and the `mightsee` rows for statistics), per-thread rows and flow frames, and the
+/// portal graph.
+pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
+    let threads = match opts.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        t => t,
+    } as u128;
+    let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
+    let row = 8 * bits::words(one_way as usize) as u128;
+    let cluster_row = 8 * bits::words(nc as usize) as u128;
+    let points: u128 = prt.portals.iter().map(|p| p.winding.points.len() as u128).sum();
+    let graph =
+        one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8) + 2 * 24 * points + nc * 2 * 24;
+    // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
+    let mut matrices = 2 * one_way * row;
+    if !opts.fast {
+        // The certified seeds, and the checkpoint log (at most one row per portal).
+        matrices += nc * cluster_row;
+        if opts.state.is_some() {
+            matrices += one_way * row;
+        }
+    }
+    // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
+    let clusters = 3 * nc * cluster_row + u128::from(prt.num_leaves) * 8 + nc * 24;
+    let per_thread = row * (3 + ESTIMATE_FRAMES) + cluster_row;
+    let slots = FLOW_BATCH as u128 * row;
+    let total = graph + matrices + clusters + threads * per_thread + slots;
+    u64::try_from(total).unwrap_or(u64::MAX)
+}
+
+/// Refuse a run whose [`memory_estimate`] exceeds the limit.
+fn check_memory(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
+    let need = memory_estimate(prt, opts);
+    // Which matrices dominate, for the message: two portal × portal, four cluster × cluster.
+    let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
+    let portal_matrices = 2 * one_way * bits::words(one_way as usize) as u128;
+    let cluster_matrices = 4 * nc * bits::words(nc as usize) as u128;
+    match crate::memory::limit(opts.max_memory) {
+        Some((limit, source_of_limit)) if need > limit => Err(VisError::Memory {
+            need,
+            limit,
+            what: if opts.fast { "vis --fast" } else { "vis" }.to_string(),
+            reason: format!(
+                "the {} matrices ({} leaves, {} clusters, {} portals)",
+                if portal_matrices >= cluster_matrices { "portal" } else { "cluster" },
+                prt.num_leaves,
+                prt.num_clusters,
+                prt.portals.len()
+            ),
+            source_of_limit,
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// The error for a caught panic, with its message when it has one.

@@ -365,3 +365,72 @@ fn a_panicking_worker_ends_the_run_with_an_error_not_a_hang() {
     });
     assert!(matches!(r, Err(VisError::Panicked(_))), "{r:?}");
 }
+
+/// The bytes of the matrices a run actually allocates, counted from the structures themselves.
+fn allocated_matrices(prt: &PortalFile, fast: bool) -> u64 {
+    let g = graph::Graph::new(prt);
+    let n = g.portals.len();
+    let words = bits::words(n);
+    let might = base::mightsee(&g, words, &|| {});
+    let nc = g.num_clusters();
+    let cw = bits::words(nc);
+    let result = cluster_rows(prt, &g, &might, words);
+    // `mightsee`, the flow rows (or the clone with `--fast`), the seeds; the cluster rows and
+    // their snapshot, and with the flow the `mightsee` cluster rows too.
+    let portal_matrices = 2 * might.len() * 8;
+    let seeds = if fast { 0 } else { nc * cw * 8 };
+    let rows = result.rows.len() * 8 * if fast { 2 } else { 3 };
+    (portal_matrices + seeds + rows + g.portals.len() * std::mem::size_of::<graph::OneWay>()) as u64
+}
+
+#[test]
+fn memory_estimate_covers_the_matrices_and_max_memory_refuses() {
+    let mut files =
+        vec![("grid".to_string(), grid(12, 9, 7)), ("corridor".into(), corridor(&[0.0; 5], &[64.0; 5]))];
+    if let Some(dir) = sightline_formats::shared_maps::dir() {
+        for name in ["dm1", "e1m1", "e1m2"] {
+            if let Ok(text) = std::fs::read_to_string(dir.join(format!("ericw/{name}.prt"))) {
+                files.push((name.to_string(), sightline_formats::prt::read(&text, name).expect("parse")));
+            }
+        }
+    }
+    for (name, prt) in &files {
+        for fast in [false, true] {
+            let opts = VisOptions { fast, threads: 2, ..VisOptions::default() };
+            let estimate = memory_estimate(prt, &opts);
+            let actual = allocated_matrices(prt, fast);
+            assert!(estimate >= actual, "{name} fast {fast}: estimate {estimate} < {actual}");
+            // Not wildly above either: the matrices dominate on real maps.
+            assert!(
+                estimate <= 4 * actual + (4 << 20),
+                "{name} fast {fast}: estimate {estimate} for {actual}"
+            );
+        }
+    }
+    let prt = &files[0].1;
+    let opts = VisOptions { threads: 2, ..VisOptions::default() };
+    let need = memory_estimate(prt, &opts);
+    let err =
+        run(prt, &VisOptions { max_memory: Some(need - 1), ..opts.clone() }, &none()).expect_err("refused");
+    assert!(
+        matches!(&err, VisError::Memory { need: n, limit, .. } if *n == need && *limit == need - 1),
+        "{err}"
+    );
+    assert!(err.to_string().starts_with("vis would need "), "{err}");
+    assert!(err.to_string().contains("allowed by --max-memory"), "{err}");
+    let fits = run(prt, &VisOptions { max_memory: Some(need), ..opts.clone() }, &none()).expect("fits");
+    let plain = run(prt, &opts, &none()).expect("vis");
+    assert!((0..plain.num_clusters()).all(|c| fits.cluster_row(c) == plain.cluster_row(c)));
+
+    // The most leaves PRT1 allows: refused at once (terabytes of cluster matrices).
+    let huge = PortalFile {
+        format: PrtFormat::Prt1,
+        num_leaves: sightline_formats::prt::MAX_LEAVES,
+        num_clusters: sightline_formats::prt::MAX_LEAVES,
+        portals: vec![PrtPortal { leaves: [0, 1], winding: square_x(0.0, 0.0, 0.0, 64.0, true) }],
+        leaf_clusters: (0..sightline_formats::prt::MAX_LEAVES).collect(),
+    };
+    assert!(memory_estimate(&huge, &opts) >= 1 << 41);
+    let err = run(&huge, &VisOptions { max_memory: Some(1 << 30), ..opts }, &none()).expect_err("refused");
+    assert!(matches!(err, VisError::Memory { limit, .. } if limit == 1 << 30), "{err}");
+}

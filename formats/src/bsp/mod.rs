@@ -9,7 +9,8 @@
 //! [`write_with_visdata`] replaces the visibility lump of an existing file and keeps every other
 //! lump byte-identical ([`write_vis_rows`] from one row offset per vis leaf); [`check_vis_layout`]
 //! tells beforehand whether a file's lumps allow that (vis asks before computing anything);
-//! [`to_level`] turns a BSP into Sightline's [`crate::level::Level`].
+//! [`to_level`] turns a BSP into Sightline's [`crate::level::Level`]. Quake 2 files (`IBSP` 38)
+//! are refused here with [`BspError::Quake2`]; [`q2`] reads them as far as vis needs.
 //!
 //! # Conventions (Quake's)
 //! - Node children use Quake's encoding, widened to `i32`: `c >= 0` is node `c`, `c < 0` is leaf
@@ -25,6 +26,7 @@
 
 mod convert;
 mod parse;
+pub mod q2;
 mod write;
 
 pub use convert::to_level;
@@ -307,6 +309,12 @@ pub enum BspError {
         /// File length.
         len: usize,
     },
+    /// A Quake 2 BSP (`IBSP`), which this reader does not take: [`q2::read`] does.
+    #[error("byte 0: Quake 2 BSP (IBSP {version}), not a Quake 1 BSP (29, BSP2 or 2PSB)")]
+    Quake2 {
+        /// The version field (38 for Quake 2).
+        version: i32,
+    },
     /// Unknown version field.
     #[error("byte 0: unknown BSP version {magic:02x?} (expected 29, BSP2 or 2PSB)")]
     Version {
@@ -360,6 +368,18 @@ pub enum BspError {
         offset: usize,
         /// Leaf index.
         leaf: usize,
+        /// Decoder error.
+        source: RleError,
+    },
+    /// A Quake 2 PVS or PHS row does not decode, or a cluster without a row was asked for one.
+    #[error("byte {offset}: {which} row of cluster {cluster}")]
+    ClusterRow {
+        /// Byte offset of the row in the file (or in the lump, for a lump read alone).
+        offset: usize,
+        /// Cluster index.
+        cluster: usize,
+        /// `"PVS"` or `"PHS"`.
+        which: &'static str,
         /// Decoder error.
         source: RleError,
     },
@@ -566,6 +586,9 @@ mod tests {
         let mut bad = good.clone();
         bad[0] = 30;
         assert!(matches!(read(&bad), Err(BspError::Version { .. })));
+        let q2 = read(b"IBSP\x26\0\0\0").unwrap_err();
+        assert_eq!(q2, BspError::Quake2 { version: 38 });
+        assert!(q2.to_string().contains("Quake 2 BSP (IBSP 38)"), "{q2}");
         let mut bad = good.clone();
         let at = 4 + 8 * lump::MODELS + 4;
         bad[at..at + 4].copy_from_slice(&1000i32.to_le_bytes());

@@ -83,6 +83,10 @@ fn non_negative(offset: usize, what: &str, index: usize, field: &str, value: i32
 }
 
 pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_LUMPS]), BspError> {
+    if super::q2::is_q2(bytes) {
+        let version = bytes.get(4..8).map_or(0, |v| i32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+        return Err(BspError::Quake2 { version });
+    }
     if bytes.len() < HEADER_BYTES {
         return Err(BspError::TooShort { len: bytes.len() });
     }

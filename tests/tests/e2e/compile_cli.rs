@@ -274,6 +274,7 @@ fn interrupted_compile_resumes_from_its_vis_state_to_the_same_level() {
         threads: Some(2),
         allow_leak: false,
         vis: Some(sightline_compiler::vis::VisOptions { state: Some(state.clone()), ..Default::default() }),
+        ..CompileOptions::default()
     };
     let out = compile(&Source::Map { map, file: "stairs_pillars.map".into() }, &opts, &NoProgress)
         .expect("resumes");

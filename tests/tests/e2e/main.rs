@@ -19,4 +19,5 @@ mod runtime_real_maps;
 mod validate_compiled;
 mod validate_reference;
 mod vis_prt;
+mod vis_q2;
 mod vis_real;

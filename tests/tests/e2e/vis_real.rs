@@ -252,6 +252,7 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
         no_state: false,
         no_progress: false,
         json: true,
+        phs_only: false,
     };
     sightline::cmd::vis::run(&args).unwrap();
     let written = std::fs::read(&bsp_path).unwrap();

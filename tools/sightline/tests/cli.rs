@@ -747,3 +747,78 @@ fn a_bad_polygon_is_reported_once() {
         }
     }
 }
+
+/// A tiny portal file declaring the most leaves PRT1 allows: vis would need terabytes for its
+/// cluster matrices and refuses at once, saying how much and why (exit 2), with or without
+/// `--max-memory`; a normal map fits and a too small `--max-memory` refuses it too.
+#[test]
+fn vis_refuses_a_job_larger_than_memory_before_allocating() {
+    let dir = temp_dir("memory");
+    let prt = dir.join("huge.prt");
+    std::fs::write(&prt, "PRT1\n4194304\n1\n4 0 1 (0 0 0) (0 64 0) (0 64 64) (0 0 64)\n").expect("write");
+    let started = std::time::Instant::now();
+    let o = run(&["vis", s(&prt), "--threads", "2", "--max-memory", "1G"]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("vis would need ") && err.contains(" TiB for the cluster matrices"), "{err}");
+    assert!(err.contains("4194304 leaves") && err.contains("1 portals"), "{err}");
+    assert!(err.contains("more than the 1.0 GiB allowed by --max-memory"), "{err}");
+    let fast = run(&["vis", s(&prt), "--fast", "--threads", "2"]);
+    let err = stderr(&fast);
+    assert_eq!(code(&fast), 2, "{err}");
+    assert!(err.contains("vis --fast would need") && err.contains("see --max-memory"), "{err}");
+    assert!(started.elapsed().as_secs() < 20, "refused without allocating");
+    assert!(!dir.join("huge.vis").exists());
+
+    let level = compile(&dir, "two_rooms.map");
+    let prt = level.with_extension("prt");
+    let ok = run(&["vis", s(&prt), "--threads", "2", "--max-memory", "1G"]);
+    assert_eq!(code(&ok), 0, "{}", stderr(&ok));
+    let tight = run(&["vis", s(&prt), "--threads", "2", "--max-memory", "1K"]);
+    assert_eq!(code(&tight), 2, "{}", stderr(&tight));
+    assert!(stderr(&tight).contains("allowed by --max-memory"));
+    let compiled = run(&["compile", s(&maps().join("two_rooms.map")), "-o", s(&level), "--max-memory", "1K"]);
+    assert_eq!(code(&compiled), 2, "{}", stderr(&compiled));
+    assert!(stderr(&compiled).contains("allowed by --max-memory"));
+    let bad = run(&["vis", s(&prt), "--max-memory", "lots"]);
+    assert_eq!(code(&bad), 2);
+}
+
+#[test]
+fn vis_on_a_quake2_bsp_writes_pvs_and_phs_and_phs_only_repairs_ericw() {
+    let Some(src) = shared_map("q2/q2_detail_leak_test.bsp") else { return };
+    let dir = copy_map(&src, "q2-vis", "leak");
+    // ericw's command line works the same way for Quake 2.
+    let o = run_in(&dir, &["vis", "-threads", "2", "leak", "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!((j["game"].as_str(), j["mode"].as_str()), (Some("quake2"), Some("vis")), "{j}");
+    assert_eq!(
+        (j["clusters"].as_u64(), j["pvs_pairs"].as_u64(), j["phs_pairs"].as_u64()),
+        (Some(15), Some(103), Some(149))
+    );
+    assert!(j["visibility_bytes"].as_u64().expect("visibility_bytes") > 4 + 8 * 15);
+    // `info` and the Quake 1 reader name the format instead of misreading it.
+    let o = run(&["info", s(&dir.join("leak.bsp"))]);
+    assert_eq!(code(&o), 2);
+    assert!(stderr(&o).contains("Quake 2 BSP (IBSP 38)"), "{}", stderr(&o));
+
+    let Some(ericw) = shared_map("q2/q2_detail_leak_test.ericw.bsp") else { return };
+    let fix = temp_dir("q2-phs-only");
+    std::fs::copy(&ericw, fix.join("e.bsp")).expect("copy .bsp");
+    let o = run_in(&fix, &["vis", "--phs-only", "e.bsp", "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!(j["mode"].as_str(), Some("phs-only"));
+    assert_eq!(
+        (j["phs_repair"]["rows_fixed"].as_u64(), j["phs_repair"]["bits_added"].as_u64()),
+        (Some(15), Some(46))
+    );
+    let o = run_in(&fix, &["vis", "--phs-only", "e.bsp"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 of 15 rows changed"));
+
+    // --phs-only on a Quake 1 file is an error naming it.
+    let o = run(&["vis", "--phs-only", s(&maps().join("room.map"))]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(stderr(&o).contains("--phs-only"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&fix);
+}

@@ -78,6 +78,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         threads: args.threads,
         allow_leak: args.allow_leak,
         vis: (!args.no_vis).then(|| args.vis.options()),
+        max_memory: args.vis.max_memory,
     };
     // Some phases advance per brush or face from worker threads: gather 32 steps per update.
     let bars = Bars::batched(args.json, 32);

@@ -1,6 +1,11 @@
 //! `sightline vis`: the PVS of a Quake `.bsp` (from its sibling `.prt`, written back into the
 //! `.bsp` atomically) or of a `.prt` (written to `<name>.vis`).
 //!
+//! A Quake 2 `.bsp` (`IBSP` 38) takes its own path: qbsp's PRT1 beside it names clusters, so vis
+//! computes cluster rows, [`sightline_compiler::phs`] adds the PHS, and the visibility lump is
+//! replaced ([`sightline_formats::bsp::q2`]). `--phs-only` recomputes only the PHS of a vised
+//! file, keeping every PVS byte. Far plane and ambient options do not apply there.
+//!
 //! The library does the work: [`sightline_compiler::visdata`] reads the input, lays out the rows
 //! and writes them into the `.bsp` (its module docs give the drop-in rules), and
 //! [`sightline_formats::visfile`] is the `.vis` file. This module parses the arguments, handles
@@ -21,9 +26,11 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 
+use sightline_compiler::phs;
 use sightline_compiler::vis::{self, VisOptions, VisPhase, VisProgress, VisResult, VisStats};
 use sightline_compiler::visdata::{self, Rows, VisInput};
-use sightline_formats::prt::PortalFile;
+use sightline_formats::bsp::q2;
+use sightline_formats::prt::{PortalFile, PrtFormat};
 use sightline_formats::texture::Ambient;
 
 use crate::cli::Outcome;
@@ -80,6 +87,10 @@ pub struct Args {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Quake 2 `.bsp` only: recompute the PHS from the PVS already in the file and rewrite it,
+    /// changing no byte of the PVS rows (repairs the PHS ericw-tools 2.0.0-alpha11 writes).
+    #[arg(long)]
+    pub phs_only: bool,
 }
 
 impl Args {
@@ -271,12 +282,16 @@ pub struct VisFlags {
     /// Stop after this many flow portals (after writing the state): for testing resumes.
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
+    /// Refuse a vis whose estimated memory is above this size (bytes, or with K, M, G, T: 512M,
+    /// 8G); the memory the machine has available is always a limit too.
+    #[arg(long, value_name = "SIZE", value_parser = sightline_compiler::memory::parse_size)]
+    pub max_memory: Option<u64>,
 }
 
 impl Default for VisFlags {
     /// The command-line defaults: full vis at level 4, no state file.
     fn default() -> Self {
-        Self { fast: false, level: 4, state: None, checkpoint_secs: 180, stop_after: None }
+        Self { fast: false, level: 4, state: None, checkpoint_secs: 180, stop_after: None, max_memory: None }
     }
 }
 
@@ -290,6 +305,7 @@ impl VisFlags {
             checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_secs.max(1)),
             stop_after: self.stop_after,
             cancel: Some(ctrl_c_flag()),
+            max_memory: self.max_memory,
             ..VisOptions::default()
         }
     }
@@ -330,6 +346,12 @@ pub struct Report {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = resolve_input(&args.input);
+    if starts_like_q2(&path) {
+        return run_q2(args, &path, t0);
+    }
+    if args.phs_only {
+        bail!("{}: --phs-only needs a Quake 2 .bsp (IBSP 38)", path.display());
+    }
     let input = VisInput::read(&path)?;
     let farplane = args.farplane.filter(|&d| d > 0.0);
     if farplane.is_some() && input.bsp.is_none() {
@@ -349,17 +371,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         );
     }
     let read_seconds = t0.elapsed().as_secs_f64();
-    if args.no_state
-        && let Some(state) = &args.vis.state
-    {
-        match std::fs::remove_file(state) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => {
-                return Err(e).with_context(|| format!("cannot delete {} (--no-state)", state.display()));
-            }
-        }
-    }
+    remove_state(args)?;
     let opts = VisOptions { threads: args.threads, ..args.vis.options() };
     let mut result = compute(&input.prt, &opts, args.json || args.no_progress)?;
     let mut farplane_hidden_pairs = 0;
@@ -409,6 +421,166 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         print!("{}", text_report(&report));
     }
     Ok(Outcome::Clean)
+}
+
+/// Deletes the `--state` file under `--no-state`.
+fn remove_state(args: &Args) -> anyhow::Result<()> {
+    if args.no_state
+        && let Some(state) = &args.vis.state
+    {
+        match std::fs::remove_file(state) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => {
+                return Err(e).with_context(|| format!("cannot delete {} (--no-state)", state.display()));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// True when `path` is a file that starts with Quake 2's `IBSP`.
+fn starts_like_q2(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && q2::is_q2(&magic)
+}
+
+/// What `sightline vis` reports for a Quake 2 `.bsp` (`--json` prints this).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Q2Report {
+    /// Input (and output) file.
+    pub input: String,
+    /// Always `"quake2"`.
+    pub game: &'static str,
+    /// `"vis"` (PVS from the `.prt`, then PHS) or `"phs-only"`.
+    pub mode: &'static str,
+    /// The portal file read (not under `--phs-only`).
+    pub prt: Option<String>,
+    /// Vis statistics (not under `--phs-only`).
+    pub vis: Option<VisStats>,
+    /// Clusters.
+    pub clusters: usize,
+    /// Ordered visible cluster pairs (self included) of the PVS.
+    pub pvs_pairs: u64,
+    /// Ordered cluster pairs of the PHS written.
+    pub phs_pairs: u64,
+    /// Under `--phs-only`: PHS rows that changed, and bits added and removed.
+    pub phs_repair: Option<phs::PhsRepair>,
+    /// Bytes of the visibility lump written.
+    pub visibility_bytes: usize,
+    /// Total seconds.
+    pub total_seconds: f64,
+}
+
+/// `sightline vis` on a Quake 2 `.bsp`: the PVS over clusters from the `.prt` beside it (qbsp's
+/// PRT1 names clusters), the PHS ([`phs::phs`]), the visibility lump written back; or, under
+/// `--phs-only`, only the PHS recomputed from the PVS in the file.
+fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
+    if args.farplane.is_some_and(|d| d > 0.0) {
+        bail!("{}: --farplane is not supported for Quake 2 BSPs yet", path.display());
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let file = q2::read(&bytes).with_context(|| format!("{}", path.display()))?;
+    q2::check_vis_layout(&file.lumps).with_context(|| format!("{}", path.display()))?;
+    let (out, report) = if args.phs_only {
+        let (out, repair) = phs::repair_phs(&bytes).with_context(|| format!("{}", path.display()))?;
+        let report = Q2Report {
+            input: path.display().to_string(),
+            game: "quake2",
+            mode: "phs-only",
+            prt: None,
+            vis: None,
+            clusters: repair.clusters,
+            pvs_pairs: repair.pvs_pairs,
+            phs_pairs: repair.phs_pairs,
+            phs_repair: Some(repair),
+            visibility_bytes: 0,
+            total_seconds: 0.0,
+        };
+        (out, report)
+    } else {
+        let tried = sightline_formats::prt::beside_bsp(path);
+        let Some(prt_path) = tried.iter().find(|p| p.is_file()) else {
+            bail!("{}: no portal file beside it (tried {:?})", path.display(), tried);
+        };
+        let prt_bytes =
+            std::fs::read(prt_path).with_context(|| format!("cannot read {}", prt_path.display()))?;
+        let prt = sightline_formats::prt::read_bytes(&prt_bytes, &prt_path.display().to_string())?;
+        let clusters = file.leaf_cluster_count();
+        if prt.format != PrtFormat::Prt1 || prt.num_leaves as usize != clusters {
+            bail!(
+                "{}: {} with {} leaves does not match the {clusters} clusters of {} (Quake 2 qbsp writes PRT1 over clusters)",
+                prt_path.display(),
+                prt.format.header(),
+                prt.num_leaves,
+                path.display()
+            );
+        }
+        remove_state(args)?;
+        let opts = VisOptions { threads: args.threads, ..args.vis.options() };
+        let result = compute(&prt, &opts, args.json || args.no_progress)?;
+        let n = clusters;
+        let mut rows = Vec::with_capacity(n * sightline_formats::bits::bytes::len(n));
+        let mut row = Vec::new();
+        for leaf in 0..n {
+            result.leaf_row_bytes(leaf, &mut row);
+            rows.extend_from_slice(&row);
+        }
+        let words = sightline_formats::bits::words(n);
+        let pvs = phs::words_from_bytes(&rows, n);
+        let phs_rows = phs::phs(&pvs, words, n);
+        let lump = phs::q2_vis_lump(&pvs, &phs_rows, words, n)?;
+        let out = q2::write_with_visibility(&bytes, &lump).with_context(|| format!("{}", path.display()))?;
+        let report = Q2Report {
+            input: path.display().to_string(),
+            game: "quake2",
+            mode: "vis",
+            prt: Some(prt_path.display().to_string()),
+            vis: Some(result.stats.clone()),
+            clusters: n,
+            pvs_pairs: sightline_formats::bits::count(&pvs),
+            phs_pairs: sightline_formats::bits::count(&phs_rows),
+            phs_repair: None,
+            visibility_bytes: 0,
+            total_seconds: 0.0,
+        };
+        (out, report)
+    };
+    sightline_formats::atomic::write_file_atomic(path, &out)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let visibility_bytes = q2::read_header(&out).map_or(0, |l| l[q2::lump::VISIBILITY].length);
+    let report = Q2Report { visibility_bytes, total_seconds: t0.elapsed().as_secs_f64(), ..report };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", q2_text_report(&report));
+    }
+    Ok(Outcome::Clean)
+}
+
+fn q2_text_report(r: &Q2Report) -> String {
+    let mut s = format!("{} (Quake 2, {}): {} clusters\n", r.input, r.mode, r.clusters);
+    if let Some(v) = &r.vis {
+        let mode =
+            if v.fast { "fast (base vis only)".to_string() } else { format!("full, level {}", v.level) };
+        s += &format!(
+            "vis {mode}, {} threads, {} portals; base {:.3} s, flow {:.3} s\n",
+            v.threads, v.portals, v.base_seconds, v.flow_seconds
+        );
+    }
+    s += &format!("PVS pairs {}, PHS pairs {}\n", r.pvs_pairs, r.phs_pairs);
+    if let Some(f) = &r.phs_repair {
+        s += &format!(
+            "PHS repaired: {} of {} rows changed, {} bits added, {} removed; PVS rows kept byte for byte\n",
+            f.rows_fixed, f.clusters, f.bits_added, f.bits_removed
+        );
+    }
+    s += &format!(
+        "visibility lump: {} bytes -> {}\ntime: total {:.3} s\n",
+        r.visibility_bytes, r.input, r.total_seconds
+    );
+    s
 }
 
 /// What to tell the user when vis stopped on request after `done` of `total` flow portals, with or
