@@ -96,14 +96,24 @@ pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_L
         .into_iter()
         .find(|v| v.magic() == magic)
         .ok_or(BspError::Version { magic })?;
-    let mut lumps = [LumpEntry::default(); NUM_LUMPS];
+    Ok((version, read_lump_table(bytes, &mut head, &lump::NAMES)?))
+}
+
+/// The lump table of a Quake-family BSP header at `head`'s position: per lump an `i32` offset and
+/// length, each lump inside the file (`bytes`). `names` names the lumps in errors.
+pub(crate) fn read_lump_table<const N: usize>(
+    bytes: &[u8],
+    head: &mut Rec<'_>,
+    names: &[&'static str; N],
+) -> Result<[LumpEntry; N], BspError> {
+    let mut lumps = [LumpEntry::default(); N];
     for (i, entry) in lumps.iter_mut().enumerate() {
         let header_offset = head.pos;
         let (offset, length) = (head.i32(), head.i32());
         let bounds_err = || BspError::LumpBounds {
             header_offset,
             lump: i,
-            name: lump::NAMES[i],
+            name: names[i],
             offset: offset.into(),
             length: length.into(),
             file_len: bytes.len(),
@@ -116,7 +126,7 @@ pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_L
         }
         *entry = LumpEntry { offset: off, length: len };
     }
-    Ok((version, lumps))
+    Ok(lumps)
 }
 
 fn read_textures(bytes: &[u8], entry: LumpEntry) -> Result<Vec<Option<MipTex>>, BspError> {

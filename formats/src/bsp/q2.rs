@@ -177,27 +177,7 @@ pub fn read_header(bytes: &[u8]) -> Result<[LumpEntry; NUM_LUMPS], BspError> {
     if version != VERSION {
         return Err(invalid(4, "Quake 2 header", format!("version {version}, expected {VERSION}")));
     }
-    let mut lumps = [LumpEntry::default(); NUM_LUMPS];
-    for (i, entry) in lumps.iter_mut().enumerate() {
-        let header_offset = head.pos;
-        let (offset, length) = (head.i32(), head.i32());
-        let bounds_err = || BspError::LumpBounds {
-            header_offset,
-            lump: i,
-            name: lump::NAMES[i],
-            offset: offset.into(),
-            length: length.into(),
-            file_len: bytes.len(),
-        };
-        let (Ok(off), Ok(len)) = (usize::try_from(offset), usize::try_from(length)) else {
-            return Err(bounds_err());
-        };
-        if off.checked_add(len).is_none_or(|end| end > bytes.len()) {
-            return Err(bounds_err());
-        }
-        *entry = LumpEntry { offset: off, length: len };
-    }
-    Ok(lumps)
+    super::parse::read_lump_table(bytes, &mut head, &lump::NAMES)
 }
 
 /// Parses and validates a Quake 2 BSP as far as vis needs it (see the module docs).
@@ -365,58 +345,7 @@ pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> 
 pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, BspError> {
     let lumps = read_header(original)?;
     check_vis_layout(&lumps)?;
-    let mut old = lumps[lump::VISIBILITY];
-    let appended;
-    let original = if old.offset < HEADER_BYTES {
-        let mut padded = original.to_vec();
-        padded.resize(padded.len().next_multiple_of(4), 0);
-        old = LumpEntry { offset: padded.len(), length: 0 };
-        appended = padded;
-        &appended[..]
-    } else {
-        original
-    };
-    let (old_start, old_end) = (old.offset, old.end());
-    let first_follow = lumps
-        .iter()
-        .enumerate()
-        .filter(|&(j, l)| j != lump::VISIBILITY && l.length > 0 && l.offset >= old_end)
-        .map(|(_, l)| l.offset)
-        .min()
-        .unwrap_or(original.len());
-    let padded = old_end.next_multiple_of(4) <= first_follow;
-    let (tail_old, tail_new) = if padded {
-        (old_end.next_multiple_of(4), (old_start + vis.len()).next_multiple_of(4))
-    } else {
-        (old_end, old_start + vis.len())
-    };
-    let mut out = Vec::with_capacity(original.len() + vis.len() + 4);
-    out.extend_from_slice(&original[..old_start]);
-    out.extend_from_slice(vis);
-    out.resize(tail_new, 0);
-    out.extend_from_slice(original.get(tail_old..).unwrap_or_default());
-
-    let mut header = lumps;
-    header[lump::VISIBILITY] = LumpEntry { offset: old_start, length: vis.len() };
-    for (j, l) in header.iter_mut().enumerate() {
-        if j == lump::VISIBILITY {
-            continue;
-        }
-        if l.length > 0 && l.offset >= old_end {
-            l.offset = l.offset - tail_old + tail_new;
-        } else if l.length == 0 && l.offset > old_start {
-            l.offset =
-                if l.offset >= tail_old { l.offset - tail_old + tail_new } else { old_start + vis.len() };
-        }
-    }
-    for (j, l) in header.iter().enumerate() {
-        let at = 8 + j * 8;
-        let offset =
-            i32::try_from(l.offset).map_err(|_| BspError::Write("file grows beyond 2 GiB".into()))?;
-        let length = i32::try_from(l.length).map_err(|_| BspError::Write("lump beyond 2 GiB".into()))?;
-        out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
-        out[at + 4..at + 8].copy_from_slice(&length.to_le_bytes());
-    }
+    let (out, _) = super::write::splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, vis)?;
     read(&out)?;
     Ok(out)
 }

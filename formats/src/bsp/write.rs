@@ -10,6 +10,83 @@ fn write_err(msg: impl Into<String>) -> BspError {
     BspError::Write(msg.into())
 }
 
+/// `original` with lump `index` of its lump table `lumps` replaced by `data`; the table is stored
+/// right before byte `header_bytes` (the end of the header), 8 bytes per lump (offset, length),
+/// as in every Quake-family BSP. Lumps stored after the old one move with it, keeping Quake's
+/// 4-byte alignment (zero padding) when the old lump was padded; empty lumps after or inside it
+/// stay next to its data; every other byte is unchanged. An empty lump recorded inside the header
+/// (offset 0 from some compilers) gets its data appended at the end of the file, 4-aligned.
+/// Returns the new file and its lump table (not read back: callers check what they wrote).
+pub(crate) fn splice_lump<const N: usize>(
+    original: &[u8],
+    lumps: &[LumpEntry; N],
+    index: usize,
+    header_bytes: usize,
+    data: &[u8],
+) -> Result<(Vec<u8>, [LumpEntry; N]), BspError> {
+    let mut old = lumps[index];
+    let appended;
+    let original = if old.offset < header_bytes {
+        let mut padded = original.to_vec();
+        padded.resize(align4(padded.len()), 0);
+        old = LumpEntry { offset: padded.len(), length: 0 };
+        appended = padded;
+        &appended[..]
+    } else {
+        original
+    };
+    let (old_start, old_end) = (old.offset, old.end());
+    // Where the bytes after the lump start: after its alignment padding when no lump starts
+    // inside that padding, else right after it.
+    let first_follow = lumps
+        .iter()
+        .enumerate()
+        .filter(|&(j, l)| j != index && l.length > 0 && l.offset >= old_end)
+        .map(|(_, l)| l.offset)
+        .min()
+        .unwrap_or(original.len());
+    let padded = align4(old_end) <= first_follow;
+    let (tail_old, tail_new) = if padded {
+        (align4(old_end), align4(old_start + data.len()))
+    } else {
+        (old_end, old_start + data.len())
+    };
+
+    let mut out = Vec::with_capacity(original.len() + data.len() + 4);
+    out.extend_from_slice(original.get(..old_start).unwrap_or_default());
+    out.extend_from_slice(data);
+    out.resize(tail_new, 0);
+    out.extend_from_slice(original.get(tail_old..).unwrap_or_default());
+
+    // Header: the new lump, then every lump that followed it moves by the same amount.
+    let mut header = *lumps;
+    header[index] = LumpEntry { offset: old_start, length: data.len() };
+    for (j, l) in header.iter_mut().enumerate() {
+        if j == index {
+            continue;
+        }
+        if l.length > 0 && l.offset >= old_end {
+            l.offset = l.offset - tail_old + tail_new;
+        } else if l.length == 0 && l.offset > old_start {
+            // An empty lump after or inside the old one: keep it next to the data.
+            l.offset =
+                if l.offset >= tail_old { l.offset - tail_old + tail_new } else { old_start + data.len() };
+        }
+    }
+    let table_at = header_bytes - N * 8;
+    for (j, l) in header.iter().enumerate() {
+        let at = table_at + j * 8;
+        let offset = i32::try_from(l.offset).map_err(|_| write_err("file grows beyond 2 GiB"))?;
+        let length = i32::try_from(l.length).map_err(|_| write_err("lump beyond 2 GiB"))?;
+        let Some(slot) = out.get_mut(at..at + 8) else {
+            return Err(write_err("file shorter than its header"));
+        };
+        slot[..4].copy_from_slice(&offset.to_le_bytes());
+        slot[4..].copy_from_slice(&length.to_le_bytes());
+    }
+    Ok((out, header))
+}
+
 /// Checks that visdata can be written into a file with these lumps, as [`write_with_visdata`]
 /// needs: the visibility lump (unless it is empty) lies past the header, and it shares no byte with
 /// another non-empty lump (an empty visibility lump must not sit strictly inside one); the leaves
@@ -111,64 +188,7 @@ pub fn write_with_visdata(
     if let Some(a) = ambient.filter(|a| a.len() != num_leaves) {
         return Err(write_err(format!("{} ambient levels given for {num_leaves} leaves", a.len())));
     }
-    let mut vis = lumps[lump::VISIBILITY];
-    // An empty visibility lump recorded inside the header (offset 0 from some compilers) has no
-    // place among the lumps: the new data goes at the end of the file, 4-aligned.
-    let appended;
-    let original = if vis.offset < HEADER_BYTES {
-        let mut padded = original.to_vec();
-        padded.resize(align4(padded.len()), 0);
-        vis = LumpEntry { offset: padded.len(), length: 0 };
-        appended = padded;
-        &appended[..]
-    } else {
-        original
-    };
-    let (old_start, old_end) = (vis.offset, vis.end());
-    // Where the bytes after the visibility lump start: after its alignment padding when no lump
-    // starts inside that padding, else right after it.
-    let first_follow = lumps
-        .iter()
-        .enumerate()
-        .filter(|&(j, l)| j != lump::VISIBILITY && l.length > 0 && l.offset >= old_end)
-        .map(|(_, l)| l.offset)
-        .min()
-        .unwrap_or(original.len());
-    let padded = align4(old_end) <= first_follow;
-    let (tail_old, tail_new) = if padded {
-        (align4(old_end), align4(old_start + visdata.len()))
-    } else {
-        (old_end, old_start + visdata.len())
-    };
-
-    let mut out = Vec::with_capacity(original.len() + visdata.len() + 4);
-    out.extend_from_slice(&original[..old_start]);
-    out.extend_from_slice(visdata);
-    out.resize(tail_new, 0);
-    out.extend_from_slice(original.get(tail_old..).unwrap_or_default());
-
-    // Header: the visibility lump, then every lump that followed it moves by the same amount.
-    let mut header = lumps;
-    header[lump::VISIBILITY] = LumpEntry { offset: old_start, length: visdata.len() };
-    for (j, l) in header.iter_mut().enumerate() {
-        if j == lump::VISIBILITY {
-            continue;
-        }
-        if l.length > 0 && l.offset >= old_end {
-            l.offset = l.offset - tail_old + tail_new;
-        } else if l.length == 0 && l.offset > old_start {
-            // An empty lump after or inside the old visibility lump: keep it next to the data.
-            l.offset =
-                if l.offset >= tail_old { l.offset - tail_old + tail_new } else { old_start + visdata.len() };
-        }
-    }
-    for (j, l) in header.iter().enumerate() {
-        let at = 4 + j * 8;
-        let offset = i32::try_from(l.offset).map_err(|_| write_err("file grows beyond 2 GiB"))?;
-        let length = i32::try_from(l.length).map_err(|_| write_err("visdata beyond 2 GiB"))?;
-        out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
-        out[at + 4..at + 8].copy_from_slice(&length.to_le_bytes());
-    }
+    let (mut out, header) = splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, visdata)?;
 
     let leaves_at = header[lump::LEAVES].offset;
     let ambient_at = version.leaf_ambient_offset();
