@@ -22,17 +22,10 @@ fn args(input: &Path, phs_only: bool) -> Args {
     Args {
         input: input.to_path_buf(),
         threads: 2,
-        vis: sightline::cmd::vis::VisFlags::default(),
-        farplane: None,
-        no_ambient: false,
-        no_ambient_sky: false,
-        no_ambient_water: false,
-        no_ambient_slime: false,
-        no_ambient_lava: false,
-        no_state: false,
         no_progress: true,
         json: true,
         phs_only,
+        ..Args::default()
     }
 }
 

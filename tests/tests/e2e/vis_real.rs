@@ -239,21 +239,7 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     std::fs::copy(&src_bsp, &bsp_path).unwrap();
     std::fs::copy(&src_prt, &prt_path).unwrap();
     let original = std::fs::read(&bsp_path).unwrap();
-    let args = Args {
-        input: bsp_path.clone(),
-        threads: 2,
-        vis: sightline::cmd::vis::VisFlags::default(),
-        farplane: None,
-        no_ambient: false,
-        no_ambient_sky: false,
-        no_ambient_water: false,
-        no_ambient_slime: false,
-        no_ambient_lava: false,
-        no_state: false,
-        no_progress: false,
-        json: true,
-        phs_only: false,
-    };
+    let args = Args { input: bsp_path.clone(), threads: 2, json: true, ..Args::default() };
     sightline::cmd::vis::run(&args).unwrap();
     let written = std::fs::read(&bsp_path).unwrap();
     let (old, new) = (bsp::read(&original).unwrap(), bsp::read(&written).unwrap());

@@ -35,8 +35,9 @@ use sightline_formats::texture::Ambient;
 
 use crate::cli::Outcome;
 
-/// Arguments of `sightline vis`.
-#[derive(Debug, clap::Args)]
+/// Arguments of `sightline vis`. `Default` (for callers building them in code) is every flag off,
+/// no input and `threads` 0 (rayon's choice).
+#[derive(Debug, Default, clap::Args)]
 #[command(after_help = "ericw-tools / id vis command lines work too: `sightline vis -threads 4 -fast e1m1` \
 reads e1m1.bsp; single-dash options (-threads N, -fast, -level N, -noambient, -noambientsky, \
 -noambientwater, -noambientslime, -noambientlava, -visdist N / -farplane N, -nostate, -noprogress) \
