@@ -16,9 +16,8 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`, never
-/// a partial file (see the module docs).
-pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+/// The folder `path` is in (`.` for a bare file name) and its file name.
+fn dir_and_name(path: &Path) -> io::Result<(&Path, &std::ffi::OsStr)> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -26,6 +25,13 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let name = path.file_name().ok_or_else(|| {
         io::Error::new(io::ErrorKind::InvalidInput, format!("{} names no file", path.display()))
     })?;
+    Ok((dir, name))
+}
+
+/// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`, never
+/// a partial file (see the module docs).
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let (dir, name) = dir_and_name(path)?;
     let (tmp, mut file) = create_temporary(dir, name)?;
     let result = (|| {
         file.write_all(bytes)?;
@@ -50,13 +56,7 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// file a write would and removes it at once. Commands that work long before writing call it first,
 /// so a bad output path fails at once instead of after the work.
 pub fn check_writable(path: &Path) -> io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path.file_name().ok_or_else(|| {
-        io::Error::new(io::ErrorKind::InvalidInput, format!("{} names no file", path.display()))
-    })?;
+    let (dir, name) = dir_and_name(path)?;
     match fs::metadata(dir) {
         Ok(meta) if meta.is_dir() => {}
         Ok(_) => {
