@@ -430,7 +430,9 @@ pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, Bsp
 /// Builds a [`Level`] from a validated Quake 3 BSP, for the runtime and validation.
 ///
 /// - Planes, nodes and leaves map one to one (leaf `i` of the level is leaf `i` of the file);
-///   the world model's head node is node 0 (leaf 0 when the file has no nodes).
+///   the world model's head node is node 0 (leaf 0 when the file has no nodes). A leaf with empty
+///   bounds (`mins > maxs`: q3map2's leaf 0, which no node names, stores `INT_MAX..INT_MIN`) gets
+///   the point box at the origin.
 /// - Leaves with cluster `-1` are [`Contents::Solid`] (they block sight), every other leaf is
 ///   [`Contents::Empty`] with its cluster: brushes that do not make a leaf opaque (detail,
 ///   translucent, non-solid) and patches let sight through, which can only make validation find
@@ -451,13 +453,16 @@ pub fn to_level(bsp: &Q3Bsp) -> Level {
     let leaves = bsp
         .leaves
         .iter()
-        .map(|l| Leaf {
-            contents: if l.cluster < 0 { Contents::Solid } else { Contents::Empty },
-            cluster: l.cluster,
-            mins: f(l.mins),
-            maxs: f(l.maxs),
-            first_face: 0,
-            num_faces: 0,
+        .map(|l| {
+            let empty = (0..3).any(|k| l.mins[k] > l.maxs[k]);
+            Leaf {
+                contents: if l.cluster < 0 { Contents::Solid } else { Contents::Empty },
+                cluster: l.cluster,
+                mins: if empty { [0.0; 3] } else { f(l.mins) },
+                maxs: if empty { [0.0; 3] } else { f(l.maxs) },
+                first_face: 0,
+                num_faces: 0,
+            }
         })
         .collect();
     let num_clusters = bsp.vis.as_ref().map_or(bsp.leaf_cluster_count(), |v| v.num_clusters);
