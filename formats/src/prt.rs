@@ -17,7 +17,7 @@
 //!   the two one-way portals exactly as Quake 1's does), so vis reads it as PRT1 over clusters.
 //!   The flags only steer q3map2's `-hint` merging and `-farplane` sky exemption, and the solid
 //!   faces (cluster walls, pointing out of their cluster) only feed its `-merge`: both are checked
-//!   like the rest of the file and then dropped ([`write`] writes flags 0 and no solid face).
+//!   like the rest of the file and then dropped ([`write()`] writes flags 0 and no solid face).
 //!   The dialect is told from PRT1 by the token after the first portal's two clusters: a number
 //!   (the flags) rather than `(`; with no portals, by a fourth header count ([`PrtFormat::of_text`]).
 //!
