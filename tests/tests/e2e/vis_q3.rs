@@ -109,3 +109,32 @@ fn q3map2_portals_face_into_their_first_cluster() {
         assert_eq!(checked, portals.portals.len());
     }
 }
+
+#[test]
+fn the_runtime_loads_a_q3map2_bsp_with_its_cluster_pvs() {
+    let Some(path) = q3_map("fan.q3map2.bsp") else { return };
+    let file = q3::read(&std::fs::read(&path).unwrap()).unwrap();
+    let vis = file.vis.as_ref().unwrap();
+    let world = sightline_runtime::load::load_path(&path).unwrap();
+    assert_eq!((world.num_clusters() as usize, world.has_vis()), (vis.num_clusters, true));
+    let mut row = sightline_runtime::Bitset::new(0);
+    let mut checked = 0;
+    for (i, leaf) in file.leaves.iter().enumerate().filter(|(_, l)| l.cluster >= 0 && l.mins[0] <= l.maxs[0])
+    {
+        // The middle of a leaf's box lies in that leaf when the leaf is a box; check the others
+        // through whatever leaf the point falls in.
+        let mid = sightline_formats::geom::Aabb::new(
+            glam::DVec3::from_array(leaf.mins.map(f64::from)),
+            glam::DVec3::from_array(leaf.maxs.map(f64::from)),
+        )
+        .center()
+        .as_vec3();
+        let Some(c) = world.leaf_cluster(world.leaf_at(mid)) else { continue };
+        world.decode_pvs(c, &mut row);
+        for j in 0..vis.num_clusters {
+            assert_eq!(row.get(j), vis.sees(c as usize, j), "leaf {i}: cluster {c} sees {j}");
+        }
+        checked += 1;
+    }
+    assert!(checked > 100, "only {checked} leaves checked");
+}
