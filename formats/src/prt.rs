@@ -1,4 +1,5 @@
-//! Quake portal files: PRT1, PRT2 and PRT1-AM (see `../shared/reference/formats.md`).
+//! Quake portal files: PRT1, PRT2, PRT1-AM and q3map2's dialect of PRT1 (see
+//! `../shared/reference/formats.md` and `family.md`).
 //!
 //! Convention: the plane of a portal's winding (computed as for `.map` sides, see
 //! [`crate::geom`]) faces **into** `leaves[0]`.
@@ -9,6 +10,16 @@
 //!   numbers terminated by `-1`.
 //! - `PRT1-AM <clusters> <portals> <leaves>`, portal lines naming clusters, then one cluster
 //!   number per leaf.
+//! - q3map2 (Quake 3): `PRT1 <clusters> <portals> <solid faces>`, then
+//!   `<n> <clusterA> <clusterB> <flags> (x y z)…` per portal (flags: bit 0 hint, bit 1 sky), then
+//!   `<n> <cluster> (x y z)…` per solid face. Portals join clusters, with the same winding
+//!   orientation as PRT1 (q3map2 writes the cluster the winding faces first, and its vis builds
+//!   the two one-way portals exactly as Quake 1's does), so vis reads it as PRT1 over clusters.
+//!   The flags only steer q3map2's `-hint` merging and `-farplane` sky exemption, and the solid
+//!   faces (cluster walls, pointing out of their cluster) only feed its `-merge`: both are checked
+//!   like the rest of the file and then dropped ([`write()`] writes flags 0 and no solid face).
+//!   The dialect is told from PRT1 by the token after the first portal's two clusters: a number
+//!   (the flags) rather than `(`; with no portals, by a fourth header count ([`PrtFormat::of_text`]).
 //!
 //! The reader rejects leaf/cluster numbers out of range, windings of fewer than 3 or more than
 //! [`MAX_POINTS`] points, non-finite coordinates, leaves missing from (or listed twice in) the
@@ -46,13 +57,15 @@ pub enum PrtFormat {
     Prt2,
     /// Older clusters variant; portal lines name clusters, then one cluster number per leaf.
     Prt1Am,
+    /// q3map2's PRT1: clusters, portals with flags, then solid faces (see the module docs).
+    Q3map2,
 }
 
 impl PrtFormat {
-    /// The first token of a file of this variant: `PRT1`, `PRT2` or `PRT1-AM`.
+    /// The first token of a file of this variant: `PRT1` (also q3map2's), `PRT2` or `PRT1-AM`.
     pub fn header(self) -> &'static str {
         match self {
-            Self::Prt1 => "PRT1",
+            Self::Prt1 | Self::Q3map2 => "PRT1",
             Self::Prt2 => "PRT2",
             Self::Prt1Am => "PRT1-AM",
         }
@@ -60,11 +73,24 @@ impl PrtFormat {
 }
 
 impl PrtFormat {
-    /// The variant whose header is the first token of `text` (leading whitespace skipped), without
-    /// reading further; `None` when it is none of them.
+    /// The variant whose header is the first token of `text` (leading whitespace skipped); for
+    /// `PRT1`, q3map2's dialect when the first portal line has a number where PRT1 has `(` (or,
+    /// without portals, when a fourth header count follows). Reads at most 7 tokens; `None` when
+    /// the header is none of them.
     pub fn of_text(text: &str) -> Option<Self> {
-        let head = text.split_whitespace().next()?;
-        [Self::Prt1, Self::Prt2, Self::Prt1Am].into_iter().find(|f| f.header() == head)
+        let mut lx = Lexer { text, pos: 0, line: 1, col: 1 };
+        let head = lx.next_token()?.text;
+        let format = [Self::Prt1, Self::Prt2, Self::Prt1Am].into_iter().find(|f| f.header() == head)?;
+        if format != Self::Prt1 {
+            return Some(format);
+        }
+        let t: Vec<&str> = std::iter::from_fn(|| lx.next_token()).take(6).map(|t| t.text).collect();
+        let q3 = match t.as_slice() {
+            [_, portals, faces, ..] if *portals == "0" => faces.parse::<u32>().is_ok(),
+            [_, _, _, _, _, flags] => flags.parse::<i64>().is_ok(),
+            _ => false,
+        };
+        Some(if q3 { Self::Q3map2 } else { Self::Prt1 })
     }
 }
 
@@ -201,16 +227,19 @@ const MIN_PORTAL_CHARS: usize = 24;
 pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
     let head = r.next("a header")?;
-    let variants = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am];
-    let Some(format) = variants.into_iter().find(|f| f.header() == head.text) else {
+    let Some(format) = PrtFormat::of_text(text) else {
         return Err(r.at(&head, PrtErrorKind::BadHeader(shown(head.text))));
     };
     let (num_leaves, num_clusters, num_portals);
+    let mut num_faces = 0;
     match format {
-        PrtFormat::Prt1 => {
+        PrtFormat::Prt1 | PrtFormat::Q3map2 => {
             num_leaves = r.count("leaf")?;
             num_clusters = num_leaves;
             num_portals = r.count("portal")?;
+            if format == PrtFormat::Q3map2 {
+                num_faces = r.count("solid face")?.1;
+            }
         }
         PrtFormat::Prt2 => {
             num_leaves = r.count("leaf")?;
@@ -228,9 +257,12 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     if (num_portals.1 as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
         return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.1.into() }));
     }
+    if (num_faces as usize).saturating_mul(MIN_PORTAL_CHARS - 2) > remaining {
+        return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "solid face", count: num_faces.into() }));
+    }
     // PRT2 and PRT1-AM list every leaf (at least two characters each); PRT1 leaves need no text.
     let leaf_limit = match format {
-        PrtFormat::Prt1 => MAX_LEAVES as usize,
+        PrtFormat::Prt1 | PrtFormat::Q3map2 => MAX_LEAVES as usize,
         _ => remaining / 2,
     };
     if num_leaves.1 as usize > leaf_limit {
@@ -252,12 +284,16 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     }
     let (num_leaves, num_clusters, num_portals) = (num_leaves.1, num_clusters.1, num_portals.1);
     let what = if format == PrtFormat::Prt1 { "leaf" } else { "cluster" };
+    let flags = format == PrtFormat::Q3map2;
     let mut portals = Vec::with_capacity(num_portals as usize);
     for _ in 0..num_portals {
-        portals.push(r.portal(num_clusters, what)?);
+        portals.push(r.portal(num_clusters, what, flags)?);
+    }
+    for _ in 0..num_faces {
+        r.solid_face(num_clusters)?;
     }
     let leaf_clusters = match format {
-        PrtFormat::Prt1 => (0..num_leaves).collect(),
+        PrtFormat::Prt1 | PrtFormat::Q3map2 => (0..num_leaves).collect(),
         PrtFormat::Prt2 => r.cluster_lists(num_leaves, num_clusters)?,
         PrtFormat::Prt1Am => {
             let mut v = Vec::with_capacity(num_leaves as usize);
@@ -287,6 +323,7 @@ pub fn write(prt: &PortalFile) -> String {
     let head = prt.format.header();
     let _ = match prt.format {
         PrtFormat::Prt1 => write!(s, "{head}\n{}\n{}\n", prt.num_leaves, prt.portals.len()),
+        PrtFormat::Q3map2 => write!(s, "{head}\n{}\n{}\n0\n", prt.num_leaves, prt.portals.len()),
         PrtFormat::Prt2 => {
             write!(s, "{head}\n{}\n{}\n{}\n", prt.num_leaves, prt.num_clusters, prt.portals.len())
         }
@@ -296,13 +333,16 @@ pub fn write(prt: &PortalFile) -> String {
     };
     for p in &prt.portals {
         let _ = write!(s, "{} {} {}", p.winding.points.len(), p.leaves[0], p.leaves[1]);
+        if prt.format == PrtFormat::Q3map2 {
+            s.push_str(" 0");
+        }
         for q in &p.winding.points {
             let _ = write!(s, " ({} {} {})", q.x, q.y, q.z);
         }
         s.push('\n');
     }
     match prt.format {
-        PrtFormat::Prt1 => {}
+        PrtFormat::Prt1 | PrtFormat::Q3map2 => {}
         PrtFormat::Prt2 => {
             let mut lists: Vec<Vec<u32>> = vec![Vec::new(); prt.num_clusters as usize];
             for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
@@ -458,14 +498,36 @@ impl<'a> Reader<'a, '_> {
         Ok(v)
     }
 
-    fn portal(&mut self, limit: u32, what: &'static str) -> Result<PrtPortal, PrtError> {
+    /// A point count: 3 to [`MAX_POINTS`].
+    fn point_count(&mut self) -> Result<usize, PrtError> {
         let (tok, n) = self.integer("a point count")?;
         if !(3..=MAX_POINTS as i64).contains(&n) {
             return Err(self.at(&tok, PrtErrorKind::BadPointCount(n)));
         }
+        Ok(n as usize)
+    }
+
+    /// A portal line; `flags`: q3map2's flags field follows the two leaves (read and dropped).
+    fn portal(&mut self, limit: u32, what: &'static str, flags: bool) -> Result<PrtPortal, PrtError> {
+        let n = self.point_count()?;
         let a = self.index(what, limit)?;
         let b = self.index(what, limit)?;
-        let mut points = Vec::with_capacity(n as usize);
+        if flags {
+            self.integer("portal flags")?;
+        }
+        Ok(PrtPortal { leaves: [a, b], winding: self.winding(n)? })
+    }
+
+    /// A q3map2 solid face, `<n> <cluster> (x y z)…`: checked, then dropped.
+    fn solid_face(&mut self, limit: u32) -> Result<(), PrtError> {
+        let n = self.point_count()?;
+        self.index("cluster", limit)?;
+        self.winding(n).map(drop)
+    }
+
+    /// `n` points `(x y z)`.
+    fn winding(&mut self, n: usize) -> Result<Winding, PrtError> {
+        let mut points = Vec::with_capacity(n);
         for _ in 0..n {
             self.punct("(", "`(` opening a point")?;
             let x = self.coord()?;
@@ -474,7 +536,7 @@ impl<'a> Reader<'a, '_> {
             self.punct(")", "`)` closing a point")?;
             points.push(DVec3::new(x, y, z));
         }
-        Ok(PrtPortal { leaves: [a, b], winding: Winding::new(points) })
+        Ok(Winding::new(points))
     }
 
     /// PRT2: per cluster, its leaves terminated by `-1`; every leaf exactly once.
@@ -535,6 +597,40 @@ mod tests {
         assert_eq!(f.format, PrtFormat::Prt1Am);
         assert_eq!(f.leaf_clusters, vec![0, 1, 1]);
         assert_eq!(f.portals[0].winding.points[1].x, 2.84e-14);
+    }
+
+    /// q3map2's layout: integer or `%f` coordinates, a space before `)`, flags, solid faces.
+    const Q3: &str = "PRT1\n3\n2\n2\n4 0 1 0 (0 0 0 ) (0 64 0 ) (0 64 64 ) (0 0 64 ) \n\
+                      3 2 1 2 (0 0 0 ) (0.500000 64 0 ) (0 64 64 ) \n\
+                      3 0 (0 0 0 ) (64 0 0 ) (64 0 64 ) \n3 2 (1 0 0 ) (64 0 0 ) (64 0 64 ) \n";
+
+    #[test]
+    fn reads_q3map2_portals_and_drops_flags_and_solid_faces() {
+        let f = read(Q3, "q3.prt").expect("valid");
+        assert_eq!(f.format, PrtFormat::Q3map2);
+        assert_eq!((f.num_leaves, f.num_clusters, f.portals.len()), (3, 3, 2));
+        assert_eq!(f.leaf_clusters, [0, 1, 2]);
+        assert_eq!(f.portals[1].leaves, [2, 1]);
+        assert_eq!(f.portals[1].winding.points[1], DVec3::new(0.5, 64.0, 0.0));
+        assert_eq!(PrtFormat::of_text(Q3), Some(PrtFormat::Q3map2));
+        assert_eq!(PrtFormat::of_text("PRT1\n3\n0\n0\n"), Some(PrtFormat::Q3map2), "no portals");
+        assert_eq!(PrtFormat::of_text("PRT1\n2\n0\n1\n3 1 (0 0 0) (1 0 0) (0 1 0)"), Some(PrtFormat::Q3map2));
+        assert_eq!(PrtFormat::of_text("PRT1\n2\n0\n"), Some(PrtFormat::Prt1));
+        assert_eq!(PrtFormat::of_text("PRT1\n2\n1\n3 0 1 (0 0 0)"), Some(PrtFormat::Prt1));
+        let back = read(&write(&f), "q3.prt").expect("round trip");
+        assert_eq!(back, f);
+        assert!(write(&f).starts_with("PRT1\n3\n2\n0\n4 0 1 0 ("));
+        // A solid face naming a cluster out of range, and one with a bad point count.
+        let e = read(&Q3.replace("3 2 (1 0 0 )", "3 3 (1 0 0 )"), "q3.prt").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::OutOfRange { value: 3, .. }) && e.line == 8, "{e}");
+        let e = read(&Q3.replace("3 0 (0 0 0 )", "2 0 (0 0 0 )"), "q3.prt").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::BadPointCount(2)), "{e}");
+        let e = read(&Q3.replace("\n2\n4 0", "\n900000\n4 0"), "q3.prt").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::CountTooLarge { what: "solid face", .. }), "{e}");
+        let e = read(&Q3.replace("1 2 (0 0 0 ) (0.5", "1 x (0 0 0 ) (0.5"), "q3.prt").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::NotANumber { expected: "portal flags", .. }), "{e}");
+        let e = read(&Q3[..Q3.len() - 10], "q3.prt").unwrap_err();
+        assert!(matches!(e.kind, PrtErrorKind::UnexpectedEof(_)), "{e}");
     }
 
     #[test]
@@ -633,15 +729,15 @@ mod tests {
     }
 
     fn file() -> impl Strategy<Value = PortalFile> {
-        (1u32..20, 0usize..3).prop_flat_map(|(clusters, kind)| {
-            let format = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am][kind];
+        (1u32..20, 0usize..4).prop_flat_map(|(clusters, kind)| {
+            let format = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am, PrtFormat::Q3map2][kind];
             let leaves = prop::collection::vec(0..clusters, clusters as usize..clusters as usize + 10);
             (prop::collection::vec(portal(clusters), 0..12), leaves).prop_map(move |(portals, mut lc)| {
                 // Every cluster owns at least one leaf; PRT1 is the identity.
                 for (i, c) in lc.iter_mut().enumerate().take(clusters as usize) {
                     *c = i as u32;
                 }
-                if format == PrtFormat::Prt1 {
+                if matches!(format, PrtFormat::Prt1 | PrtFormat::Q3map2) {
                     lc.truncate(clusters as usize);
                 } else if format == PrtFormat::Prt2 {
                     // The writer lists leaves cluster by cluster, so the reader's order is the same.

@@ -17,7 +17,12 @@ pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
 
 /// Load a Quake `.bsp` (BSP29, BSP2, BSP2-RMQ) with its visdata. Leaf `i` of the world is leaf `i`
 /// of the BSP; vis leaf `i` is cluster `i - 1` (see [`bsp::to_level`]). The world has no portals.
+/// A Quake 3 `.bsp` (`IBSP` 46/47) keeps its own clusters and cluster PVS
+/// ([`bsp::q3::to_level`]).
 pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
+    if bsp::q3::is_q3(bytes) {
+        return World::new(&bsp::q3::to_level(&bsp::q3::read(bytes)?));
+    }
     World::new(&bsp::to_level(&bsp::read(bytes)?))
 }
 
@@ -47,7 +52,9 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) {
         return load_slvl(&bytes).map_err(in_file);
     }
-    if let Some(prt_path) = sibling_prt(path)
+    // Quake 3 portals join clusters, not leaves: the portal backend cannot use them.
+    if !bsp::q3::is_q3(&bytes)
+        && let Some(prt_path) = sibling_prt(path)
         && let Ok(prt_bytes) = std::fs::read(&prt_path)
         && let text = String::from_utf8_lossy(&prt_bytes)
         && PrtFormat::of_text(&text) == Some(PrtFormat::Prt1)

@@ -278,6 +278,61 @@ fn q2_bsp_reader_survives_hostile_files() {
     assert!(rejected > 600, "only {rejected} of 2150 mutated Quake 2 BSPs rejected");
 }
 
+#[test]
+fn q3_bsp_reader_survives_hostile_files() {
+    let (Some(vised), Some(plain)) = (shared("q3/fan.q3map2.bsp"), shared("q3/fan.bsp")) else { return };
+    let rejected = hammer(
+        "q3 bsp",
+        &[vised, plain],
+        600,
+        12,
+        |r, d| {
+            // Half of the mutations land in the visibility lump (counts, rows).
+            if r.below(2) == 0
+                && let Ok((_, lumps)) = bsp::q3::read_header(d)
+                && lumps[bsp::q3::lump::VISIBILITY].length > 0
+            {
+                let v = lumps[bsp::q3::lump::VISIBILITY];
+                let mut out = d.to_vec();
+                let body = mutate(r, &d[v.offset..v.end()], 8);
+                out.splice(v.offset..v.end(), body);
+                return out;
+            }
+            mutate(r, d, bsp::q3::HEADER_BYTES)
+        },
+        linear_bound,
+        |data| match bsp::q3::read(data) {
+            Ok(b) => {
+                // What reads converts to a level that passes the level rules, and writes back.
+                let level = bsp::q3::to_level(&b);
+                if b.vis.as_ref().is_none_or(|v| v.num_clusters * v.num_clusters <= 64 * data.len()) {
+                    let _ = slvl::validate(&level);
+                }
+                let lump = bsp::q3::vis_lump(0, &[]).expect("empty lump");
+                let _ = bsp::q3::write_with_visibility(data, &lump);
+                true
+            }
+            Err(_) => false,
+        },
+    );
+    assert!(rejected > 300, "only {rejected} of 1200 mutated Quake 3 BSPs rejected");
+}
+
+#[test]
+fn q3map2_prt_reader_survives_hostile_text() {
+    let Some(fan) = shared("q3/fan.prt") else { return };
+    let rejected = hammer(
+        "q3map2 prt",
+        &[fan],
+        600,
+        13,
+        |r, d| mutate_text(r, d).into_bytes(),
+        linear_bound,
+        |data| prt::read_bytes(data, "hostile.prt").is_ok(),
+    );
+    assert!(rejected > 300, "only {rejected} of 600 mutated q3map2 portal files rejected");
+}
+
 /// `.slvl` files expand lz4 lumps: the reader allows all lumps together
 /// `slvl::MAX_TOTAL_EXPANSION` times the file size plus 16 MiB, and parsed records take at most
 /// a few times their bytes, so the bound is wider than for the other readers.

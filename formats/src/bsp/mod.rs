@@ -27,6 +27,7 @@
 mod convert;
 mod parse;
 pub mod q2;
+pub mod q3;
 mod write;
 
 pub use convert::to_level;

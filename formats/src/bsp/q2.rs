@@ -309,32 +309,7 @@ pub fn vis_lump<P: AsRef<[u8]>, H: AsRef<[u8]>>(pvs: &[P], phs: &[H]) -> Result<
 /// Checks that the visibility lump can be replaced: when not empty it lies past the header and
 /// shares no byte with another non-empty lump; when empty it is not strictly inside one.
 pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> {
-    let vis = lumps[lump::VISIBILITY];
-    let overlap = |other: String, o: LumpEntry| BspError::Overlap {
-        lump: "visibility",
-        offset: vis.offset,
-        end: vis.end(),
-        other,
-        other_offset: o.offset,
-        other_end: o.end(),
-    };
-    if vis.offset < HEADER_BYTES {
-        if vis.length > 0 {
-            return Err(overlap("the header".into(), LumpEntry { offset: 0, length: HEADER_BYTES }));
-        }
-        return Ok(());
-    }
-    for (j, l) in lumps.iter().enumerate() {
-        let shares = if vis.length > 0 {
-            l.offset < vis.end() && vis.offset < l.end()
-        } else {
-            l.offset < vis.offset && vis.offset < l.end()
-        };
-        if j != lump::VISIBILITY && l.length > 0 && shares {
-            return Err(overlap(format!("lump {}", lump::NAMES[j]), *l));
-        }
-    }
-    Ok(())
+    super::write::check_lump_apart(lumps, lump::VISIBILITY, HEADER_BYTES, &lump::NAMES)
 }
 
 /// Returns `original` with its visibility lump replaced by `vis` (a whole lump, as [`vis_lump`]

@@ -87,6 +87,44 @@ pub(crate) fn splice_lump<const N: usize>(
     Ok((out, header))
 }
 
+/// Checks that lump `index` of `lumps` (a file whose header ends at byte `header_bytes`; `names`
+/// names the lumps) can be replaced by [`splice_lump`]: when not empty it lies past the header and
+/// shares no byte with another non-empty lump; when empty it is not strictly inside one. The
+/// Quake 2 and Quake 3 visibility lumps are checked this way.
+pub(crate) fn check_lump_apart<const N: usize>(
+    lumps: &[LumpEntry; N],
+    index: usize,
+    header_bytes: usize,
+    names: &[&'static str; N],
+) -> Result<(), BspError> {
+    let this = lumps[index];
+    let overlap = |other: String, o: LumpEntry| BspError::Overlap {
+        lump: names[index],
+        offset: this.offset,
+        end: this.end(),
+        other,
+        other_offset: o.offset,
+        other_end: o.end(),
+    };
+    if this.offset < header_bytes {
+        if this.length > 0 {
+            return Err(overlap("the header".into(), LumpEntry { offset: 0, length: header_bytes }));
+        }
+        return Ok(());
+    }
+    for (j, l) in lumps.iter().enumerate() {
+        let shares = if this.length > 0 {
+            l.offset < this.end() && this.offset < l.end()
+        } else {
+            l.offset < this.offset && this.offset < l.end()
+        };
+        if j != index && l.length > 0 && shares {
+            return Err(overlap(format!("lump {}", names[j]), *l));
+        }
+    }
+    Ok(())
+}
+
 /// Checks that visdata can be written into a file with these lumps, as [`write_with_visdata`]
 /// needs: the visibility lump (unless it is empty) lies past the header, and it shares no byte with
 /// another non-empty lump (an empty visibility lump must not sit strictly inside one); the leaves

@@ -20,4 +20,5 @@ mod validate_compiled;
 mod validate_reference;
 mod vis_prt;
 mod vis_q2;
+mod vis_q3;
 mod vis_real;

@@ -822,3 +822,51 @@ fn vis_on_a_quake2_bsp_writes_pvs_and_phs_and_phs_only_repairs_ericw() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&fix);
 }
+
+#[test]
+fn quake3_vis_info_validate_and_bad_files() {
+    let Some(src) = shared_map("q3/fan.bsp") else { return };
+    let dir = copy_map(&src, "q3-vis", "fan");
+    // ericw's command line works for Quake 3 too.
+    let o = run_in(&dir, &["vis", "-threads", "2", "fan", "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!((j["game"].as_str(), j["prt_format"].as_str()), (Some("quake3"), Some("q3map2")), "{j}");
+    assert_eq!((j["clusters"].as_u64(), j["visibility_bytes"].as_u64()), (Some(172), Some(8 + 172 * 24)));
+    let pairs = j["pvs_pairs"].as_u64().expect("pvs_pairs");
+    let bsp = dir.join("fan.bsp");
+    let o = run(&["info", s(&bsp), "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let info = stdout_json(&o);
+    assert_eq!((info["kind"].as_str(), info["version"].as_i64()), (Some("q3_bsp"), Some(46)), "{info}");
+    assert_eq!((info["clusters"].as_u64(), info["pvs_pairs"].as_u64()), (Some(172), Some(pairs)));
+    assert_eq!((info["leaves"].as_u64(), info["has_vis"].as_bool()), (Some(413), Some(true)));
+    let o = run(&["validate", s(&bsp), "--rays", "20000", "--json"]);
+    assert_eq!(code(&o), 0, "no miss: {}", stderr(&o));
+    assert!(stderr(&o).contains("sampling against the BSP tree only"), "{}", stderr(&o));
+
+    // Broken files: exit 2, the message names the file and the place.
+    let good = std::fs::read(&bsp).expect("read");
+    let (_, lumps) = sightline_formats::bsp::q3::read_header(&good).expect("header");
+    let vis_at = lumps[sightline_formats::bsp::q3::lump::VISIBILITY].offset;
+    let mut bad = good.clone();
+    bad[vis_at..vis_at + 4].copy_from_slice(&100_000i32.to_le_bytes());
+    let broken = dir.join("broken.bsp");
+    for (bytes, place) in [(&bad[..], format!("byte {}", vis_at + 4)), (&good[..1000], "byte 8".to_string())]
+    {
+        std::fs::write(&broken, bytes).expect("write");
+        for cmd in ["info", "vis", "validate"] {
+            let o = run(&[cmd, s(&broken)]);
+            let err = stderr(&o);
+            assert_eq!(code(&o), 2, "{cmd}: {err}");
+            assert!(err.contains("broken.bsp") && err.contains(&place), "{cmd}: {err}");
+            assert!(!err.contains("panicked"), "{cmd}: {err}");
+        }
+    }
+    // A q3map2 portal file that does not parse: exit 2 naming it, line and column.
+    let prt = std::fs::read_to_string(dir.join("fan.prt")).expect("read .prt");
+    std::fs::write(dir.join("fan.prt"), prt.replacen("4 0 11 0 (", "4 0 11 x (", 1)).expect("write");
+    let o = run(&["vis", s(&bsp)]);
+    assert_eq!(code(&o), 2);
+    assert!(stderr(&o).contains("fan.prt:5:8: expected portal flags"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -47,15 +47,18 @@ pub enum LoadError {
 }
 
 /// Read a Sightline `.slvl`, or a Quake `.bsp` (through [`bsp::to_level`]: one cluster per vis
-/// leaf), as a [`Level`].
+/// leaf; a Quake 3 `.bsp` through [`bsp::q3::to_level`]: its clusters, opaque leaves solid), as a
+/// [`Level`].
 pub fn load_level(path: &Path) -> Result<Level, LoadError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
     match ext.as_str() {
         "bsp" => {
-            let b =
-                bsp::read(&bytes).map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
-            Ok(bsp::to_level(&b))
+            let bsp_err = |source| LoadError::Bsp { path: path.to_path_buf(), source };
+            if bsp::q3::is_q3(&bytes) {
+                return Ok(bsp::q3::to_level(&bsp::q3::read(&bytes).map_err(bsp_err)?));
+            }
+            Ok(bsp::to_level(&bsp::read(&bytes).map_err(bsp_err)?))
         }
         "slvl" => slvl::read(&bytes).map_err(|source| LoadError::Slvl { path: path.to_path_buf(), source }),
         _ => Err(LoadError::UnknownExtension { path: path.to_path_buf() }),

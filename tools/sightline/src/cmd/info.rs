@@ -105,7 +105,7 @@ pub enum Details {
     },
     /// A `.prt` portal file.
     Prt {
-        /// `"prt1"`, `"prt2"` or `"prt1_am"`.
+        /// `"prt1"`, `"prt2"`, `"prt1_am"` or `"q3map2"`.
         format: &'static str,
         /// Vis leaves.
         leaves: u32,
@@ -131,6 +131,29 @@ pub enum Details {
         /// Whether the file carries vis data.
         has_vis: bool,
         /// Decoded from the rows (a leaf without a row sees every vis leaf); `null` without vis leaves.
+        pvs: Option<PvsSummary>,
+        /// World model bounds; `null` without models.
+        bounds: Option<Bounds>,
+    },
+    /// A Quake 3 BSP (`IBSP` 46, or 47 for Quake Live).
+    Q3Bsp {
+        /// 46 or 47.
+        version: i32,
+        /// Leaves, opaque ones (cluster -1) included.
+        leaves: usize,
+        /// Leaves in no cluster (opaque).
+        opaque_leaves: usize,
+        /// Clusters: the visibility lump's count, else the clusters the leaves name.
+        clusters: usize,
+        /// Models including the world.
+        models: usize,
+        /// Size of the visibility lump.
+        visdata_bytes: usize,
+        /// Whether the file carries vis data.
+        has_vis: bool,
+        /// Ordered visible cluster pairs, self included; `null` without vis.
+        pvs_pairs: Option<u64>,
+        /// Counted in clusters; `null` without vis or clusters.
         pvs: Option<PvsSummary>,
         /// World model bounds; `null` without models.
         bounds: Option<Bounds>,
@@ -180,6 +203,9 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
             }
         }
         FileKind::Prt => prt_details(&prt::read_bytes(&bytes, &name)?),
+        FileKind::Bsp if bsp::q3::is_q3(&bytes) => {
+            q3_details(&bsp::q3::read(&bytes).with_context(|| format!("{name}: invalid Quake 3 BSP"))?)
+        }
         FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
             .with_context(|| format!("{name}: bad PVS row"))?,
         FileKind::Slvl => slvl_details(&bytes).with_context(|| format!("{name}: invalid level"))?,
@@ -209,6 +235,7 @@ fn prt_details(p: &prt::PortalFile) -> Details {
             prt::PrtFormat::Prt1 => "prt1",
             prt::PrtFormat::Prt2 => "prt2",
             prt::PrtFormat::Prt1Am => "prt1_am",
+            prt::PrtFormat::Q3map2 => "q3map2",
         },
         leaves: p.num_leaves,
         clusters: p.num_clusters,
@@ -230,6 +257,27 @@ fn bsp_details(b: &bsp::Bsp) -> anyhow::Result<Details> {
             .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
         bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
     })
+}
+
+fn q3_details(b: &bsp::q3::Q3Bsp) -> Details {
+    let vis = b.vis.as_ref();
+    let counts: Vec<usize> =
+        vis.map(|v| (0..v.num_clusters).map(|c| v.visible_from(c)).collect()).unwrap_or_default();
+    Details::Q3Bsp {
+        version: b.version,
+        leaves: b.leaves.len(),
+        opaque_leaves: b.leaves.iter().filter(|l| l.cluster < 0).count(),
+        clusters: vis.map_or(b.leaf_cluster_count(), |v| v.num_clusters),
+        models: b.models.len(),
+        visdata_bytes: b.lumps[bsp::q3::lump::VISIBILITY].length,
+        has_vis: vis.is_some(),
+        pvs_pairs: vis.map(|v| v.pairs()),
+        pvs: (!counts.is_empty()).then(|| PvsSummary {
+            avg_visible_leaves: counts.iter().sum::<usize>() as f64 / counts.len() as f64,
+            max_visible_leaves: counts.iter().copied().max().unwrap_or(0),
+        }),
+        bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+    }
 }
 
 fn slvl_details(bytes: &[u8]) -> anyhow::Result<Details> {
@@ -297,6 +345,34 @@ impl InfoReport {
                 line("models", models.to_string());
                 line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
                 line("pvs", pvs(p));
+                line("bounds", bounds(b));
+            }
+            Details::Q3Bsp {
+                version,
+                leaves,
+                opaque_leaves,
+                clusters,
+                models,
+                visdata_bytes,
+                has_vis,
+                pvs_pairs,
+                pvs: p,
+                bounds: b,
+            } => {
+                line("kind", format!("bsp (Quake 3, IBSP {version})"));
+                line("leaves", format!("{leaves} ({opaque_leaves} opaque, {clusters} clusters)"));
+                line("models", models.to_string());
+                line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
+                let pairs = pvs_pairs.map_or(String::new(), |n| format!(", {n} cluster pairs"));
+                line(
+                    "pvs",
+                    p.map_or("none".to_string(), |p| {
+                        format!(
+                            "average {:.1} visible clusters, max {}{pairs}",
+                            p.avg_visible_leaves, p.max_visible_leaves
+                        )
+                    }),
+                );
                 line("bounds", bounds(b));
             }
             Details::Slvl {

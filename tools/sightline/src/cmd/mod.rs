@@ -7,3 +7,4 @@ pub mod info;
 pub mod render;
 pub mod validate;
 pub mod vis;
+pub mod vis_q3;

@@ -67,7 +67,14 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         eprintln!("note: {} has no PVS (everything visible): nothing can be missed", file());
     }
     let pvs = pvs::level_pvs(&level).with_context(file)?;
-    let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: args.oracle.into() };
+    let mut oracle = args.oracle;
+    if level.faces.is_empty() && oracle == OracleArg::Both {
+        // Quake 3 levels carry no faces (their surfaces are not needed to block sight: the
+        // opaque leaves do); the mesh oracle has nothing to cast against.
+        eprintln!("note: {} has no faces: sampling against the BSP tree only", file());
+        oracle = OracleArg::Tree;
+    }
+    let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: oracle.into() };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
     let mut v =
         pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;

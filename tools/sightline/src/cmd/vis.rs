@@ -4,7 +4,8 @@
 //! A Quake 2 `.bsp` (`IBSP` 38) takes its own path: qbsp's PRT1 beside it names clusters, so vis
 //! computes cluster rows, [`sightline_compiler::phs`] adds the PHS, and the visibility lump is
 //! replaced ([`sightline_formats::bsp::q2`]). `--phs-only` recomputes only the PHS of a vised
-//! file, keeping every PVS byte. Far plane and ambient options do not apply there.
+//! file, keeping every PVS byte. Far plane and ambient options do not apply there. A Quake 3
+//! `.bsp` (`IBSP` 46/47) goes to [`super::vis_q3`].
 //!
 //! The library does the work: [`sightline_compiler::visdata`] reads the input, lays out the rows
 //! and writes them into the `.bsp` (its module docs give the drop-in rules), and
@@ -347,6 +348,9 @@ pub struct Report {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = resolve_input(&args.input);
+    if super::vis_q3::starts_like_q3(&path) {
+        return super::vis_q3::run(args, &path, t0);
+    }
     if starts_like_q2(&path) {
         return run_q2(args, &path, t0);
     }
@@ -425,7 +429,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 }
 
 /// Deletes the `--state` file under `--no-state`.
-fn remove_state(args: &Args) -> anyhow::Result<()> {
+pub(crate) fn remove_state(args: &Args) -> anyhow::Result<()> {
     if args.no_state
         && let Some(state) = &args.vis.state
     {
@@ -616,7 +620,7 @@ fn ctrl_c_flag() -> Arc<AtomicBool> {
 }
 
 /// Run vis with a progress bar (hidden under `--json` or without a terminal).
-fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<VisResult> {
+pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<VisResult> {
     let base = crate::progress::bar("base", 0, quiet);
     let flow = crate::progress::bar("flow", 0, quiet);
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
