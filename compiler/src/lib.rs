@@ -278,8 +278,10 @@ pub enum CompileError {
         file: String,
     },
     /// The mesh has no usable triangle.
-    #[error("{file}: the mesh has no triangle with an area")]
+    #[error("{file}: no triangle in the whole file has an area ({triangles} triangles read)")]
     EmptyMesh {
+        /// Triangles the mesh has (all of them degenerate).
+        triangles: usize,
         /// Source file.
         file: String,
     },

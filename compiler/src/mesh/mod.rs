@@ -85,7 +85,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
     progress.advance(mesh.triangles.len() as u64);
     let world = Aabb::from_points(polys.iter().flat_map(|p| p.winding.points.iter().copied()));
     if polys.is_empty() || world.is_empty() {
-        return Err(CompileError::EmptyMesh { file: file.to_string() });
+        return Err(CompileError::EmptyMesh { file: file.to_string(), triangles: mesh.triangles.len() });
     }
     let inner = world.expanded(OUTSIDE_MARGIN);
     let volume_box = world.expanded(2.0 * OUTSIDE_MARGIN);
