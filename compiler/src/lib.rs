@@ -278,8 +278,10 @@ pub enum CompileError {
         file: String,
     },
     /// The mesh has no usable triangle.
-    #[error("{file}: the mesh has no triangle with an area")]
+    #[error("{file}: no triangle in the whole file has an area ({triangles} triangles read)")]
     EmptyMesh {
+        /// Triangles the mesh has (all of them degenerate).
+        triangles: usize,
         /// Source file.
         file: String,
     },
@@ -403,8 +405,8 @@ pub(crate) struct Prepared {
     pub entities: String,
     pub textures: Vec<String>,
     pub stats: Stats,
-    /// A prebuilt world tree (meshes build theirs from polygons).
-    pub tree: Option<(bsp::Tree, Aabb)>,
+    /// A mesh's prebuilt world tree (maps build theirs from brushes after loading).
+    pub mesh: Option<mesh::MeshTree>,
     /// Fill unreachable space (maps) or keep every non-solid leaf (meshes, no entities).
     pub fill: bool,
 }
@@ -422,8 +424,8 @@ fn compile_here(
     clock.lap("csg", progress);
 
     progress.begin("bsp", 1 + prep.submodels.len() as u64);
-    let (tree, bounds) = match prep.tree.take() {
-        Some(t) => t,
+    let (mut tree, bounds, world_bounds, cover) = match prep.mesh.take() {
+        Some(m) => (m.tree, m.volume, m.world, Some(m.cover)),
         None => {
             let world =
                 Aabb::from_points(prep.structural.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
@@ -433,7 +435,7 @@ fn compile_here(
             let bounds = world.expanded(OUTSIDE_MARGIN);
             let volume = Brush::from_box(&mut prep.planes, &bounds, Contents::Empty);
             let brushes = std::mem::take(&mut prep.structural);
-            (bsp::build(&prep.planes, brushes, volume), bounds)
+            (bsp::build(&prep.planes, brushes, volume), bounds, world, None)
         }
     };
     progress.advance(1);
@@ -460,6 +462,18 @@ fn compile_here(
     clock.lap("portals", progress);
 
     progress.begin("outside", 1);
+    if let Some(cover) = &cover {
+        let opened = cover.open_unenclosed(&mut tree, &prep.planes, &graph);
+        if opened.cells > 0 {
+            prep.stats.warnings.push(format!(
+                "{file}: {} cells behind triangles are not enclosed by the mesh and were left open \
+                 (sight passes through them), within {} to {}",
+                opened.cells,
+                mesh::point(opened.bounds.mins),
+                mesh::point(opened.bounds.maxs)
+            ));
+        }
+    }
     let fill = outside::flood(&tree, &prep.planes, &graph, &prep.seeds, prep.fill);
     progress.advance(1);
     let mut leak = None;
@@ -489,7 +503,6 @@ fn compile_here(
         let (ctree, origin) = tree.collapse_detail(&fill.contents);
         (portals::build(&ctree, &prep.planes, &bounds), origin)
     });
-    let world_bounds = bounds.expanded(-OUTSIDE_MARGIN);
     let world = emit::World {
         tree: &tree,
         contents: &fill.contents,

@@ -241,7 +241,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         entities,
         textures,
         stats,
-        tree: None,
+        mesh: None,
         fill: true,
     })
 }

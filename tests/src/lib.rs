@@ -85,3 +85,82 @@ pub fn mutate(rng: &mut SplitMix64, input: &[u8], header: usize) -> Vec<u8> {
     }
     out
 }
+
+/// Re-encodes a BSP29 file as BSP2 (`rmq == false`) or BSP2-RMQ: the lumps whose records widen
+/// are rebuilt from the parsed file, the others copied; lumps are laid out in index order.
+pub fn widen_bsp(bytes: &[u8], bsp: &sightline_formats::bsp::Bsp, rmq: bool) -> Vec<u8> {
+    fn put<T: Copy, const N: usize>(out: &mut Vec<u8>, values: &[T], f: impl Fn(T) -> [u8; N]) {
+        values.iter().for_each(|&v| out.extend_from_slice(&f(v)));
+    }
+    let bounds = |out: &mut Vec<u8>, v: [f32; 3]| {
+        for c in v {
+            if rmq {
+                out.extend_from_slice(&(c as i16).to_le_bytes());
+            } else {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    };
+    let mut lumps: Vec<Vec<u8>> = bsp.lumps.iter().map(|l| bytes[l.offset..l.end()].to_vec()).collect();
+    let mut nodes = Vec::new();
+    for n in &bsp.nodes {
+        nodes.extend_from_slice(&(n.plane as i32).to_le_bytes());
+        put(&mut nodes, &n.children, i32::to_le_bytes);
+        bounds(&mut nodes, n.mins);
+        bounds(&mut nodes, n.maxs);
+        put(&mut nodes, &[n.first_face, n.num_faces], u32::to_le_bytes);
+    }
+    lumps[sightline_formats::bsp::lump::NODES] = nodes;
+    let mut leaves = Vec::new();
+    for l in &bsp.leaves {
+        put(&mut leaves, &[l.contents, l.visofs], i32::to_le_bytes);
+        bounds(&mut leaves, l.mins);
+        bounds(&mut leaves, l.maxs);
+        put(&mut leaves, &[l.first_marksurface, l.num_marksurfaces], u32::to_le_bytes);
+        leaves.extend_from_slice(&l.ambient);
+    }
+    lumps[sightline_formats::bsp::lump::LEAVES] = leaves;
+    let mut faces = Vec::new();
+    for f in &bsp.faces {
+        put(
+            &mut faces,
+            &[f.plane, u32::from(f.back), f.first_edge, f.num_edges, f.texinfo],
+            u32::to_le_bytes,
+        );
+        faces.extend_from_slice(&f.styles);
+        faces.extend_from_slice(&f.light_offset.to_le_bytes());
+    }
+    lumps[sightline_formats::bsp::lump::FACES] = faces;
+    let old_clip = &lumps[sightline_formats::bsp::lump::CLIPNODES];
+    let mut clip = Vec::new();
+    for rec in old_clip.chunks_exact(8) {
+        clip.extend_from_slice(&rec[..4]);
+        for c in [&rec[4..6], &rec[6..8]] {
+            // Clip children are contents codes (negative) or clipnode indices.
+            let v = i16::from_le_bytes([c[0], c[1]]);
+            let v = if v >= -15 { i32::from(v) } else { i32::from(v as u16) };
+            clip.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    lumps[sightline_formats::bsp::lump::CLIPNODES] = clip;
+    let mut marks = Vec::new();
+    put(&mut marks, &bsp.marksurfaces, u32::to_le_bytes);
+    lumps[sightline_formats::bsp::lump::MARKSURFACES] = marks;
+    let mut edges = Vec::new();
+    for e in &bsp.edges {
+        put(&mut edges, e, u32::to_le_bytes);
+    }
+    lumps[sightline_formats::bsp::lump::EDGES] = edges;
+
+    let mut out = if rmq { b"2PSB".to_vec() } else { b"BSP2".to_vec() };
+    out.resize(sightline_formats::bsp::HEADER_BYTES, 0);
+    for (i, data) in lumps.iter().enumerate() {
+        out.resize(out.len().next_multiple_of(4), 0);
+        let at = 4 + i * 8;
+        let (offset, length) = (out.len() as i32, data.len() as i32);
+        out[at..at + 4].copy_from_slice(&offset.to_le_bytes());
+        out[at + 4..at + 8].copy_from_slice(&length.to_le_bytes());
+        out.extend_from_slice(data);
+    }
+    out
+}

@@ -56,6 +56,9 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
+#[path = "hostile_inputs/binary.rs"]
+mod binary;
+
 /// Runs `f` and returns the peak number of bytes it held allocated at once on this thread.
 fn peak_during(f: impl FnOnce()) -> usize {
     let base = CURRENT.with(Cell::get);

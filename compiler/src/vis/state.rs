@@ -207,10 +207,12 @@ fn decode(bytes: &[u8]) -> Result<State, String> {
     let mut sum = [0u8; TRAILER];
     sum.copy_from_slice(trailer);
     if payload.len() < 8 || payload[..8] != MAGIC.to_le_bytes() {
-        return Err("not a vis state of this version".to_string());
+        return Err("bytes 0..8 are not the magic of a vis state of this version".to_string());
     }
     if u64::from_le_bytes(sum) != fnv1a(payload, FNV_OFFSET) {
-        return Err("checksum mismatch: the file is damaged".to_string());
+        return Err(format!(
+            "the checksum at offset {split} does not match bytes 0..{split}: the file is damaged"
+        ));
     }
     let (state, used) = decode_payload(payload)?;
     if used != payload.len() {
@@ -246,13 +248,16 @@ pub fn load(path: &Path, want: &Expect) -> Result<Option<State>, VisError> {
     let state = decode(&bytes).map_err(|e| {
         VisError::State(format!("{}: not a usable vis state ({e}); delete it to start over", path.display()))
     })?;
-    if state.input_hash != want.input_hash
-        || state.portals != want.portals as u64
-        || state.words != want.words as u64
-        || state.clusters != want.clusters as u64
-    {
+    let header = [
+        ("input hash", state.input_hash, want.input_hash),
+        ("portal count", state.portals, want.portals as u64),
+        ("row words", state.words, want.words as u64),
+        ("cluster count", state.clusters, want.clusters as u64),
+    ];
+    if let Some((field, got, wanted)) = header.iter().find(|(_, got, wanted)| got != wanted) {
         return Err(VisError::State(format!(
-            "{}: state belongs to another portal file or other options; delete it to start over",
+            "{}: state belongs to another portal file or other options (header field {field} is {got}, \
+             this run's is {wanted}); delete it to start over",
             path.display()
         )));
     }

@@ -10,6 +10,7 @@ mod gvs_visibility;
 mod info_cli;
 mod map_parse;
 mod mapgen;
+mod mesh_validate;
 mod render_pixels;
 mod runtime_bench;
 mod runtime_compiled;

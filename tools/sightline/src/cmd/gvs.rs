@@ -229,7 +229,7 @@ fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<
     let Checked { params, variants, shift } = checked;
     let (scene, level) = scene::load(&args.input, args.scene_seed)?;
     if scene.triangles.is_empty() {
-        bail!("{}: no triangles", args.input);
+        bail!("{}: no triangles in the whole file", args.input);
     }
     let mut cells = Vec::new();
     for spec in &args.cell {

@@ -6,17 +6,31 @@
 //! in the node (at most [`MAX_CANDIDATES`] evenly spaced ones are scored by
 //! `5·splits + |front − back|`, axial planes first on ties); polygons on the splitter's plane are
 //! used up. A node without polygons is a leaf: empty when it is the front child of its parent (or
-//! the root), solid when it is the back child. Meshes have no entities: no leak check, and every
-//! non-solid leaf is kept.
+//! the root), solid when it is the back child. That is only a guess for a mesh that is not closed
+//! and consistently oriented; [`seal`] checks it once the portals exist and opens every solid cell
+//! the triangles do not enclose (warning with where), so a polygon soup never blocks sight its
+//! triangles do not block.
+//!
+//! The level's world ends [`OUTSIDE_MARGIN`] units beyond the triangles: the tree starts with six
+//! nodes on the faces of that box whose outer children are solid (as a map's filled outside), so no
+//! leaf reaches past it and a line leaving the box never comes back. The tree's volume is twice the
+//! margin beyond the triangles, so those outer cells have a volume too. Meshes have no entities: no
+//! leak check, and every non-solid leaf is kept.
+//!
+//! A triangle is two-sided: its faces are handed to emit in both orientations, and emit keeps each
+//! one that borders an open leaf (one of a closed mesh's, both of a triangle standing in the open).
 
 use glam::DVec3;
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
-use sightline_formats::{Aabb, Contents, PlaneSet, Side, Winding};
+use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
 
 use crate::brush::Brush;
 use crate::bsp::{Tree, TreeNode};
 use crate::csg::CsgFace;
 use crate::{CompileError, OUTSIDE_MARGIN, Prepared, Progress, Stats};
+
+pub mod edges;
+pub mod seal;
 
 /// At most this many candidate planes are scored per node.
 pub const MAX_CANDIDATES: usize = 32;
@@ -71,28 +85,50 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
     progress.advance(mesh.triangles.len() as u64);
     let world = Aabb::from_points(polys.iter().flat_map(|p| p.winding.points.iter().copied()));
     if polys.is_empty() || world.is_empty() {
-        return Err(CompileError::EmptyMesh { file: file.to_string() });
+        return Err(CompileError::EmptyMesh { file: file.to_string(), triangles: mesh.triangles.len() });
     }
-    let bounds = world.expanded(OUTSIDE_MARGIN);
-    let volume = Brush::from_box(&mut planes, &bounds, Contents::Empty);
-    let faces: Vec<CsgFace> = polys
-        .iter()
-        .enumerate()
-        .map(|(i, p)| CsgFace {
-            plane: p.plane,
-            winding: p.winding.clone(),
+    let inner = world.expanded(OUTSIDE_MARGIN);
+    let volume_box = world.expanded(2.0 * OUTSIDE_MARGIN);
+    let volume = Brush::from_box(&mut planes, &volume_box, Contents::Empty);
+    let mut sides = Vec::with_capacity(6);
+    for axis in 0..3 {
+        let n = DVec3::AXES[axis];
+        sides.push(planes.insert(Plane { normal: n, dist: inner.maxs[axis] }) as u32);
+        sides.push(planes.insert(Plane { normal: -n, dist: -inner.mins[axis] }) as u32);
+    }
+    let mut cover = seal::Cover::default();
+    let mut faces = Vec::with_capacity(2 * polys.len());
+    for (i, p) in polys.iter().enumerate() {
+        cover.add(p.plane, p.winding.clone());
+        let face = |plane: u32, winding: Winding| CsgFace {
+            plane,
+            winding,
             texture: 0,
             brush: i as u32,
             contents: Contents::Solid,
-        })
-        .collect();
+        };
+        faces.push(face(p.plane, p.winding.clone()));
+        faces.push(face(p.plane ^ 1, p.winding.reversed()));
+    }
     let mut tree = Tree::default();
-    build_r(&planes, polys, volume, Contents::Empty, &mut tree.nodes);
+    enclose(&planes, polys, volume, &sides, &mut tree.nodes, &mut cover.boundary);
     let mut stats = Stats { brushes: 0, csg_faces: faces.len(), ..Stats::default() };
     if mesh.skipped_faces > 0 {
         stats.warnings.push(format!(
             "{file}: {} faces with fewer than 3 vertices skipped (points and lines have no area)",
             mesh.skipped_faces
+        ));
+    }
+    let open = edges::open_edges(mesh.triangles.iter());
+    if let Some((a, b)) = open.first {
+        stats.warnings.push(format!(
+            "{file}: the mesh is not closed: {} edges belong to one triangle only, within {} to {} \
+             (the first from {} to {}); space behind its triangles stays solid only where they enclose it",
+            open.count,
+            point(open.bounds.mins),
+            point(open.bounds.maxs),
+            point(a),
+            point(b)
         ));
     }
     Ok(Prepared {
@@ -104,9 +140,67 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         entities: "{\n\"classname\" \"worldspawn\"\n}\n".to_string(),
         textures: vec!["mesh".to_string()],
         stats,
-        tree: Some((tree, bounds)),
+        mesh: Some(MeshTree { tree, volume: volume_box, world, cover }),
         fill: false,
     })
+}
+
+/// A mesh's tree before [`seal`] checks its solid cells.
+#[derive(Debug)]
+pub(crate) struct MeshTree {
+    /// The tree: six box nodes, then the polygon BSP.
+    pub tree: Tree,
+    /// The tree's volume (twice [`OUTSIDE_MARGIN`] beyond the triangles).
+    pub volume: Aabb,
+    /// The triangles' bounds.
+    pub world: Aabb,
+    /// The triangles by plane and the box's solid cells.
+    pub cover: seal::Cover,
+}
+
+/// `(x y z)` with at most two decimals, for messages.
+pub(crate) fn point(p: DVec3) -> String {
+    let r = |v: f64| (v * 100.0).round() / 100.0 + 0.0;
+    format!("({} {} {})", r(p.x), r(p.y), r(p.z))
+}
+
+/// Nodes on `sides` (plane indices facing out of the mesh's box), each with a solid outer child
+/// whose tree index goes to `boundary`, above the polygon BSP of `polys` (all inside the box).
+fn enclose(
+    planes: &PlaneSet,
+    polys: Vec<Poly>,
+    volume: Brush,
+    sides: &[u32],
+    out: &mut Vec<TreeNode>,
+    boundary: &mut Vec<u32>,
+) -> u32 {
+    let Some((&side, rest)) = sides.split_first() else {
+        return build_r(planes, polys, volume, Contents::Empty, out);
+    };
+    let plane = side & !1;
+    let (Some(front), Some(back)) = volume.split(planes, plane) else {
+        // The volume lies a margin beyond the box on every side, so this plane always cuts it.
+        return enclose(planes, polys, volume, rest, out, boundary);
+    };
+    let index = out.len() as u32;
+    out.push(TreeNode::Node { plane, children: [0, 0], bounds: volume.bounds, detail: false });
+    fn solid(bounds: Aabb, out: &mut Vec<TreeNode>, boundary: &mut Vec<u32>) -> u32 {
+        boundary.push(out.len() as u32);
+        out.push(TreeNode::Leaf { contents: Contents::Solid, bounds });
+        out.len() as u32 - 1
+    }
+    // Pre-order with the front child first.
+    let children = if side == plane {
+        let f = solid(front.bounds, out, boundary);
+        [f, enclose(planes, polys, back, rest, out, boundary)]
+    } else {
+        let f = enclose(planes, polys, front, rest, out, boundary);
+        [f, solid(back.bounds, out, boundary)]
+    };
+    if let Some(TreeNode::Node { children: c, .. }) = out.get_mut(index as usize) {
+        *c = children;
+    }
+    index
 }
 
 /// The plane (oriented as the first polygon on it faces) to split by.
