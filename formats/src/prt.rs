@@ -1,4 +1,5 @@
-//! Quake portal files: PRT1, PRT2 and PRT1-AM (see `../shared/reference/formats.md`).
+//! Quake portal files: PRT1, PRT2 and PRT1-AM (see `../shared/reference/formats.md`), and the
+//! VHLT/SDHLT dialect Half-Life's `hlbsp` writes ([`vhlt`], see `../shared/reference/family.md`).
 //!
 //! Convention: the plane of a portal's winding (computed as for `.map` sides, see
 //! [`crate::geom`]) faces **into** `leaves[0]`.
@@ -9,6 +10,9 @@
 //!   numbers terminated by `-1`.
 //! - `PRT1-AM <clusters> <portals> <leaves>`, portal lines naming clusters, then one cluster
 //!   number per leaf.
+//! - VHLT (no header word): `<portal leaves> <portals>`, one line per portal leaf with the number
+//!   of BSP vis leaves it holds, then portal lines naming portal leaves (read as clusters); or,
+//!   once `hlvis` has deleted the count lines ("FixPrt"), the portal lines right after the counts.
 //!
 //! The reader rejects leaf/cluster numbers out of range, windings of fewer than 3 or more than
 //! [`MAX_POINTS`] points, non-finite coordinates, leaves missing from (or listed twice in) the
@@ -31,6 +35,8 @@ use glam::DVec3;
 
 use crate::geom::Winding;
 
+mod vhlt;
+
 /// Largest number of points a portal winding may have (as readers in the wild cap it).
 pub const MAX_POINTS: usize = 64;
 
@@ -46,24 +52,34 @@ pub enum PrtFormat {
     Prt2,
     /// Older clusters variant; portal lines name clusters, then one cluster number per leaf.
     Prt1Am,
+    /// Half-Life's VHLT/SDHLT `hlbsp`: no header word; a leaf count per portal leaf (cluster),
+    /// whose leaves are consecutive vis leaves; portal lines name portal leaves.
+    Vhlt,
+    /// [`PrtFormat::Vhlt`] after `hlvis`'s FixPrt deleted the count lines: which vis leaves a
+    /// portal leaf holds is not in the file, so each portal leaf is read as one vis leaf.
+    VhltFixed,
 }
 
 impl PrtFormat {
-    /// The first token of a file of this variant: `PRT1`, `PRT2` or `PRT1-AM`.
+    /// The variant's name: the first token of a file of it (`PRT1`, `PRT2`, `PRT1-AM`), or `VHLT`
+    /// and `VHLT-fixed` for the dialects without a header word.
     pub fn header(self) -> &'static str {
         match self {
             Self::Prt1 => "PRT1",
             Self::Prt2 => "PRT2",
             Self::Prt1Am => "PRT1-AM",
+            Self::Vhlt => "VHLT",
+            Self::VhltFixed => "VHLT-fixed",
         }
     }
-}
 
-impl PrtFormat {
-    /// The variant whose header is the first token of `text` (leading whitespace skipped), without
-    /// reading further; `None` when it is none of them.
+    /// The variant of `text` from its first token (leading whitespace skipped), and for the VHLT
+    /// dialects (a number first) from the shape of the third line; `None` when it is none of them.
     pub fn of_text(text: &str) -> Option<Self> {
         let head = text.split_whitespace().next()?;
+        if head.parse::<i64>().is_ok() {
+            return Some(vhlt::sniff(text));
+        }
         [Self::Prt1, Self::Prt2, Self::Prt1Am].into_iter().find(|f| f.header() == head)
     }
 }
@@ -122,8 +138,8 @@ pub struct PortalFile {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PrtErrorKind {
-    /// The first token is not `PRT1`, `PRT2` or `PRT1-AM`.
-    #[error("unknown portal file header `{0}`, expected PRT1, PRT2 or PRT1-AM")]
+    /// The first token is not `PRT1`, `PRT2`, `PRT1-AM` or a number (VHLT).
+    #[error("unknown portal file header `{0}`, expected PRT1, PRT2, PRT1-AM or a portal leaf count (VHLT)")]
     BadHeader(String),
     /// End of text where more was needed.
     #[error("unexpected end of file, expected {0}")]
@@ -177,6 +193,9 @@ pub enum PrtErrorKind {
     /// Tokens after the end of the data.
     #[error("trailing data `{0}` after the last record")]
     Trailing(String),
+    /// A negative VHLT leaf count.
+    #[error("portal leaf holds {0} leaves, expected a count >= 0")]
+    BadLeafCount(i64),
 }
 
 /// A `.prt` read error with its location; displays as `file:line:col: message`.
@@ -200,6 +219,9 @@ const MIN_PORTAL_CHARS: usize = 24;
 /// Read a portal file. `file` is only used in error messages.
 pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
+    if r.lx.clone().next_token().is_some_and(|t| t.text.parse::<i64>().is_ok()) {
+        return vhlt::read(r);
+    }
     let head = r.next("a header")?;
     let variants = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am];
     let Some(format) = variants.into_iter().find(|f| f.header() == head.text) else {
@@ -207,7 +229,7 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     };
     let (num_leaves, num_clusters, num_portals);
     match format {
-        PrtFormat::Prt1 => {
+        PrtFormat::Prt1 | PrtFormat::Vhlt | PrtFormat::VhltFixed => {
             num_leaves = r.count("leaf")?;
             num_clusters = num_leaves;
             num_portals = r.count("portal")?;
@@ -223,11 +245,7 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
             num_leaves = r.count("leaf")?;
         }
     }
-    let remaining = text.len().saturating_sub(r.lx.pos);
-    let pos = r.lx.position();
-    if (num_portals.1 as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
-        return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.1.into() }));
-    }
+    let remaining = r.check_portal_count(num_portals.1)?;
     // PRT2 and PRT1-AM list every leaf (at least two characters each); PRT1 leaves need no text.
     let leaf_limit = match format {
         PrtFormat::Prt1 => MAX_LEAVES as usize,
@@ -252,12 +270,10 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     }
     let (num_leaves, num_clusters, num_portals) = (num_leaves.1, num_clusters.1, num_portals.1);
     let what = if format == PrtFormat::Prt1 { "leaf" } else { "cluster" };
-    let mut portals = Vec::with_capacity(num_portals as usize);
-    for _ in 0..num_portals {
-        portals.push(r.portal(num_clusters, what)?);
-    }
+    let portals = r.portals(num_portals, num_clusters, what)?;
     let leaf_clusters = match format {
-        PrtFormat::Prt1 => (0..num_leaves).collect(),
+        // The VHLT dialects never get here (they have no header word): see `vhlt::read`.
+        PrtFormat::Prt1 | PrtFormat::Vhlt | PrtFormat::VhltFixed => (0..num_leaves).collect(),
         PrtFormat::Prt2 => r.cluster_lists(num_leaves, num_clusters)?,
         PrtFormat::Prt1Am => {
             let mut v = Vec::with_capacity(num_leaves as usize);
@@ -267,9 +283,7 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
             v
         }
     };
-    if let Some(tok) = r.lx.next_token() {
-        return Err(r.at(&tok, PrtErrorKind::Trailing(shown(tok.text))));
-    }
+    r.end()?;
     Ok(PortalFile { format, num_leaves, num_clusters, portals, leaf_clusters })
 }
 
@@ -293,6 +307,7 @@ pub fn write(prt: &PortalFile) -> String {
         PrtFormat::Prt1Am => {
             write!(s, "{head}\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves)
         }
+        PrtFormat::Vhlt | PrtFormat::VhltFixed => vhlt::write_head(prt, &mut s),
     };
     for p in &prt.portals {
         let _ = write!(s, "{} {} {}", p.winding.points.len(), p.leaves[0], p.leaves[1]);
@@ -302,7 +317,7 @@ pub fn write(prt: &PortalFile) -> String {
         s.push('\n');
     }
     match prt.format {
-        PrtFormat::Prt1 => {}
+        PrtFormat::Prt1 | PrtFormat::Vhlt | PrtFormat::VhltFixed => {}
         PrtFormat::Prt2 => {
             let mut lists: Vec<Vec<u32>> = vec![Vec::new(); prt.num_clusters as usize];
             for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
@@ -342,6 +357,7 @@ struct Token<'a> {
     col: u32,
 }
 
+#[derive(Clone)]
 struct Lexer<'a> {
     text: &'a str,
     pos: usize,
@@ -456,6 +472,39 @@ impl<'a> Reader<'a, '_> {
             return Err(self.at(&tok, PrtErrorKind::NonFinite(shown(tok.text))));
         }
         Ok(v)
+    }
+
+    /// Checks that `num_portals` portal lines can fit the text that remains; returns its length.
+    fn check_portal_count(&self, num_portals: u32) -> Result<usize, PrtError> {
+        let remaining = self.lx.text.len().saturating_sub(self.lx.pos);
+        if (num_portals as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
+            let kind = PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.into() };
+            return Err(self.err(self.lx.position(), kind));
+        }
+        Ok(remaining)
+    }
+
+    /// `num_portals` portal lines (already checked by [`Reader::check_portal_count`]) naming
+    /// `what`s below `limit`.
+    fn portals(
+        &mut self,
+        num_portals: u32,
+        limit: u32,
+        what: &'static str,
+    ) -> Result<Vec<PrtPortal>, PrtError> {
+        let mut portals = Vec::with_capacity(num_portals as usize);
+        for _ in 0..num_portals {
+            portals.push(self.portal(limit, what)?);
+        }
+        Ok(portals)
+    }
+
+    /// No token may follow the last record.
+    fn end(&mut self) -> Result<(), PrtError> {
+        match self.lx.next_token() {
+            Some(tok) => Err(self.at(&tok, PrtErrorKind::Trailing(shown(tok.text)))),
+            None => Ok(()),
+        }
     }
 
     fn portal(&mut self, limit: u32, what: &'static str) -> Result<PrtPortal, PrtError> {
@@ -633,18 +682,23 @@ mod tests {
     }
 
     fn file() -> impl Strategy<Value = PortalFile> {
-        (1u32..20, 0usize..3).prop_flat_map(|(clusters, kind)| {
-            let format = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am][kind];
+        (1u32..20, 0usize..5).prop_flat_map(|(clusters, kind)| {
+            let format =
+                [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am, PrtFormat::Vhlt, PrtFormat::VhltFixed]
+                    [kind];
             let leaves = prop::collection::vec(0..clusters, clusters as usize..clusters as usize + 10);
             (prop::collection::vec(portal(clusters), 0..12), leaves).prop_map(move |(portals, mut lc)| {
                 // Every cluster owns at least one leaf; PRT1 is the identity.
                 for (i, c) in lc.iter_mut().enumerate().take(clusters as usize) {
                     *c = i as u32;
                 }
-                if format == PrtFormat::Prt1 {
-                    lc.truncate(clusters as usize);
-                } else if format == PrtFormat::Prt2 {
-                    // The writer lists leaves cluster by cluster, so the reader's order is the same.
+                match format {
+                    PrtFormat::Prt1 | PrtFormat::VhltFixed => lc.truncate(clusters as usize),
+                    // A VHLT portal leaf holds consecutive leaves.
+                    PrtFormat::Vhlt => lc.sort_unstable(),
+                    // The writer lists PRT2 leaves cluster by cluster, so the reader's order is the
+                    // same.
+                    PrtFormat::Prt2 | PrtFormat::Prt1Am => {}
                 }
                 PortalFile {
                     format,

@@ -18,6 +18,7 @@ mod runtime_hostile;
 mod runtime_real_maps;
 mod validate_compiled;
 mod validate_reference;
+mod vis_hl;
 mod vis_prt;
 mod vis_q2;
 mod vis_real;

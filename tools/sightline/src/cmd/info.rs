@@ -105,7 +105,7 @@ pub enum Details {
     },
     /// A `.prt` portal file.
     Prt {
-        /// `"prt1"`, `"prt2"` or `"prt1_am"`.
+        /// `"prt1"`, `"prt2"`, `"prt1_am"`, `"vhlt"` or `"vhlt_fixed"`.
         format: &'static str,
         /// Vis leaves.
         leaves: u32,
@@ -209,6 +209,8 @@ fn prt_details(p: &prt::PortalFile) -> Details {
             prt::PrtFormat::Prt1 => "prt1",
             prt::PrtFormat::Prt2 => "prt2",
             prt::PrtFormat::Prt1Am => "prt1_am",
+            prt::PrtFormat::Vhlt => "vhlt",
+            prt::PrtFormat::VhltFixed => "vhlt_fixed",
         },
         leaves: p.num_leaves,
         clusters: p.num_clusters,
