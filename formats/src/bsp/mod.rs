@@ -452,6 +452,8 @@ pub struct PvsStats {
     pub avg_visible: f64,
     /// Largest number of visible leaves of one vis leaf.
     pub max_visible: usize,
+    /// Ordered visible (vis leaf, vis leaf) pairs, self included: the bits set in all rows.
+    pub pairs: u64,
     /// Size of the visibility lump.
     pub visdata_bytes: usize,
 }
@@ -518,6 +520,7 @@ impl Bsp {
             visleafs,
             avg_visible: total as f64 / visleafs as f64,
             max_visible: max,
+            pairs: total as u64,
             visdata_bytes: self.visdata.len(),
         }))
     }

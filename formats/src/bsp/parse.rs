@@ -26,11 +26,22 @@ fn records<'a>(
     index: usize,
     size: usize,
 ) -> Result<impl Iterator<Item = (usize, Rec<'a>)>, BspError> {
+    lump_records(bytes, lumps, &lump::NAMES, index, size)
+}
+
+/// As [`records`], for any Quake-family lump table (`names` names the lumps in errors).
+pub(super) fn lump_records<'a, const N: usize>(
+    bytes: &'a [u8],
+    lumps: &[LumpEntry; N],
+    names: &[&'static str; N],
+    index: usize,
+    size: usize,
+) -> Result<impl Iterator<Item = (usize, Rec<'a>)> + use<'a, N>, BspError> {
     let entry = lumps[index];
     if !entry.length.is_multiple_of(size) {
         return Err(BspError::LumpSize {
             offset: entry.offset,
-            name: lump::NAMES[index],
+            name: names[index],
             length: entry.length,
             record: size,
         });
@@ -39,12 +50,12 @@ fn records<'a>(
     Ok(data.chunks_exact(size).enumerate().map(move |(i, chunk)| (entry.offset + i * size, Rec::new(chunk))))
 }
 
-fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
+pub(super) fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
     BspError::Invalid { offset, what: what.into(), detail: detail.into() }
 }
 
 /// Checks that `first..first + count` lies within `0..len`.
-fn check_range(
+pub(super) fn check_range(
     offset: usize,
     what: &str,
     index: usize,
@@ -63,7 +74,8 @@ fn check_range(
     Ok(())
 }
 
-fn check_index(
+/// Checks that `value` indexes `0..len`.
+pub(super) fn check_index(
     offset: usize,
     what: &str,
     index: usize,
@@ -77,7 +89,13 @@ fn check_index(
     Ok(())
 }
 
-fn non_negative(offset: usize, what: &str, index: usize, field: &str, value: i32) -> Result<u32, BspError> {
+pub(super) fn non_negative(
+    offset: usize,
+    what: &str,
+    index: usize,
+    field: &str,
+    value: i32,
+) -> Result<u32, BspError> {
     u32::try_from(value)
         .map_err(|_| invalid(offset, format!("{what} {index}"), format!("negative {field} {value}")))
 }

@@ -6,6 +6,7 @@ mod bsp_roundtrip;
 mod bundled_expectations;
 mod compile_cli;
 mod compile_maps;
+mod family_runtime;
 mod gvs_visibility;
 mod info_cli;
 mod map_parse;
