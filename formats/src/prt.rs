@@ -1,5 +1,5 @@
 //! Quake portal files: PRT1, PRT2 and PRT1-AM (see `../shared/reference/formats.md`), and the
-//! VHLT/SDHLT dialect Half-Life's `hlbsp` writes ([`vhlt`], see `../shared/reference/family.md`).
+//! VHLT/SDHLT dialect Half-Life's `hlbsp` writes (module `vhlt`, see `../shared/reference/family.md`).
 //!
 //! Convention: the plane of a portal's winding (computed as for `.map` sides, see
 //! [`crate::geom`]) faces **into** `leaves[0]`.
