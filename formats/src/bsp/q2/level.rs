@@ -17,10 +17,11 @@
 //!   has no place in a level; the runtime reads it from the lump itself.
 //! - Contents: Quake 2's are bit sets. A leaf with `CONTENTS_SOLID` (1) is solid (and has no
 //!   cluster); otherwise lava (8), slime (16) and water (32) give those contents, and every
-//!   other leaf (empty, window 2, mist 64, detail, ...) is open air. Quake 2 draws an opaque
-//!   (not `SURF_TRANS*`) liquid surface, and its vis writes no portal through it; the level has
-//!   no "opaque liquid", so such a leaf is see-through here: a validator may then report sight
-//!   lines through opaque liquid that no Quake 2 vis claims (stricter, never looser).
+//!   other leaf (empty, window 2, mist 64, detail, ...) is open air. Quake 2's qbsp writes no
+//!   portal between different visible contents unless one is translucent (an opaque liquid
+//!   surface, a `func_illusionary_visblocker`'s mist); the level has no "opaque liquid", so such
+//!   a leaf is see-through here: a validator may then report sight lines through it that no
+//!   Quake 2 vis claims (stricter, never looser).
 //! - Textures: one level texture per texinfo (its name), so a face's texture is its texinfo.
 
 use super::{LEAF_BYTES, Q2Bsp, lump};
