@@ -6,11 +6,15 @@
 //! - Rows are uncompressed in Quake's byte layout ([`sightline_formats::bits::bytes`]) and
 //!   compressed with [`sightline_formats::rle`].
 //! - Drop-in rules for a `.bsp` (as the reference vis): vis leaf `j` of the portal file is BSP
-//!   leaf `j + 1` and owns PVS row `j`; leaves of one cluster share one compressed row, and
-//!   identical rows are stored once, at the offset of their first occurrence in leaf order. Every
-//!   vis leaf's ambient sound levels (water, sky, slime, lava) become 255 when its PVS holds a
-//!   face whose texture makes that sound ([`sightline_formats::texture`]), else 0. Leaves that
-//!   are not vis leaves keep their `visofs` and ambient levels.
+//!   leaf `j + 1` and owns PVS row `j`; leaves of one cluster (a PRT2 cluster, a VHLT portal
+//!   leaf) share one compressed row, and identical rows are stored once, at the offset of their
+//!   first occurrence in leaf order. Every vis leaf's ambient sound levels (water, sky, slime,
+//!   lava) become 255 when its PVS holds a face whose texture makes that sound
+//!   ([`sightline_formats::texture`]), else 0. Leaves that are not vis leaves keep their
+//!   `visofs` and ambient levels.
+//! - Half-Life (BSP30) is written the same way, ambient levels included: ericw-tools' vis fills
+//!   them for BSP30 too, while SDHLT's `hlvis` leaves them 0, which
+//!   `-noambient` reproduces.
 //! - Ambient options ([`AmbientOptions`], `vis -noambient…`): a sound switched off is 0 in every
 //!   vis leaf; faces whose texinfo ericw-tools' qbsp flagged `noambient` in `NAME.texinfo.json`
 //!   beside the `.bsp` ([`sightline_formats::texinfo_json`], read by [`VisInput::read`]) make no
@@ -101,6 +105,23 @@ pub enum VisdataError {
         prt: PathBuf,
         /// Its vis leaves.
         prt_leaves: u32,
+    },
+    /// A VHLT portal file without its leaf-count lines (rewritten by `hlvis`'s FixPrt) whose
+    /// portal leaves are not one per vis leaf of the `.bsp`: which leaves each holds is lost.
+    #[error(
+        "{} has no leaf-count lines (hlvis's FixPrt removed them), so its {portal_leaves} portal leaves cannot be matched to the {bsp_leaves} vis leaves of {}; vis needs the .prt as hlbsp wrote it (or hlvis -nofixprt)",
+        prt.display(),
+        bsp.display()
+    )]
+    FixedPrt {
+        /// The `.bsp`.
+        bsp: PathBuf,
+        /// Its vis leaves.
+        bsp_leaves: usize,
+        /// The `.prt`.
+        prt: PathBuf,
+        /// Its portal leaves.
+        portal_leaves: u32,
     },
     /// The `.bsp` could not take the new visdata (for example more than 2 GiB of it).
     #[error(transparent)]
@@ -204,6 +225,14 @@ impl VisInput {
         if let Some(b) = &bsp
             && b.bsp.visleafs() != prt.num_leaves as usize
         {
+            if prt.format == prt::PrtFormat::VhltFixed {
+                return Err(VisdataError::FixedPrt {
+                    bsp: b.path.clone(),
+                    bsp_leaves: b.bsp.visleafs(),
+                    prt: prt_path,
+                    portal_leaves: prt.num_clusters,
+                });
+            }
             return Err(VisdataError::Mismatch {
                 bsp: b.path.clone(),
                 bsp_leaves: b.bsp.visleafs(),

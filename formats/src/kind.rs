@@ -6,7 +6,7 @@
 //! - The extension decides when it is one of `.map`, `.obj`, `.prt`, `.bsp`, `.slvl` (ASCII
 //!   case-insensitive), whatever the bytes are.
 //! - Otherwise the first bytes do: the `.slvl` magic `SLVL`; a BSP version (`29` little-endian,
-//!   `BSP2`, `2PSB`, Quake 2's `IBSP`); `PRT1` or `PRT2` (which also starts `PRT1-AM`). Failing those, the first line
+//!   `BSP2`, `2PSB`, Half-Life's `30`, Quake 2's `IBSP`); `PRT1` or `PRT2` (which also starts `PRT1-AM`). Failing those, the first line
 //!   of the first 4096 bytes (read lossily as UTF-8) that is neither blank nor a `//` comment: a `{`
 //!   starts a `.map`, an `.obj` keyword (`v`, `vt`, `vn`, `f`, `o`, `g`, `s`, `mtllib`, `usemtl`,
 //!   or a `#` comment) an `.obj`.
@@ -24,7 +24,8 @@ pub enum FileKind {
     Obj,
     /// A `.prt` portal file.
     Prt,
-    /// A Quake BSP (Quake 1's BSP29, BSP2, BSP2-RMQ, or Quake 2's `IBSP`).
+    /// A Quake-family BSP (Quake 1's BSP29, BSP2, BSP2-RMQ, Half-Life's BSP30, or Quake 2's
+    /// `IBSP`).
     Bsp,
     /// A Sightline level (`.slvl`).
     Slvl,
@@ -62,9 +63,7 @@ impl FileKind {
         if magic == crate::slvl::MAGIC {
             return Some(Self::Slvl);
         }
-        if [BspVersion::Bsp29, BspVersion::Bsp2, BspVersion::Bsp2Rmq].iter().any(|v| magic == v.magic())
-            || magic == crate::bsp::q2::MAGIC
-        {
+        if BspVersion::ALL.iter().any(|v| magic == v.magic()) || magic == crate::bsp::q2::MAGIC {
             return Some(Self::Bsp);
         }
         if bytes.starts_with(b"PRT1") || bytes.starts_with(b"PRT2") {
@@ -94,6 +93,7 @@ mod tests {
         assert_eq!(kind_of(Path::new("a.txt"), b"SLVL"), Some(FileKind::Slvl));
         assert_eq!(kind_of(none, b"SLVL\x01\0\0\0"), Some(FileKind::Slvl));
         assert_eq!(kind_of(none, &[29, 0, 0, 0, 1]), Some(FileKind::Bsp));
+        assert_eq!(kind_of(none, &[30, 0, 0, 0, 1]), Some(FileKind::Bsp));
         assert_eq!(kind_of(none, b"BSP2...."), Some(FileKind::Bsp));
         assert_eq!(kind_of(none, b"2PSB...."), Some(FileKind::Bsp));
         assert_eq!(kind_of(none, b"IBSP\x26\0\0\0"), Some(FileKind::Bsp));

@@ -1,5 +1,6 @@
-//! Quake portal files: PRT1, PRT2, PRT1-AM and q3map2's dialect of PRT1 (see
-//! `../shared/reference/formats.md` and `family.md`).
+//! Quake portal files: PRT1, PRT2, PRT1-AM, q3map2's dialect of PRT1 (see
+//! `../shared/reference/formats.md` and `family.md`), and the VHLT/SDHLT dialect Half-Life's
+//! `hlbsp` writes (module `vhlt`).
 //!
 //! Convention: the plane of a portal's winding (computed as for `.map` sides, see
 //! [`crate::geom`]) faces **into** `leaves[0]`.
@@ -20,6 +21,9 @@
 //!   like the rest of the file and then dropped ([`write()`] writes flags 0 and no solid face).
 //!   The dialect is told from PRT1 by the token after the first portal's two clusters: a number
 //!   (the flags) rather than `(`; with no portals, by a fourth header count ([`PrtFormat::of_text`]).
+//! - VHLT (no header word): `<portal leaves> <portals>`, one line per portal leaf with the number
+//!   of BSP vis leaves it holds, then portal lines naming portal leaves (read as clusters); or,
+//!   once `hlvis` has deleted the count lines ("FixPrt"), the portal lines right after the counts.
 //!
 //! The reader rejects leaf/cluster numbers out of range, windings of fewer than 3 or more than
 //! [`MAX_POINTS`] points, non-finite coordinates, leaves missing from (or listed twice in) the
@@ -42,6 +46,8 @@ use glam::DVec3;
 
 use crate::geom::Winding;
 
+mod vhlt;
+
 /// Largest number of points a portal winding may have (as readers in the wild cap it).
 pub const MAX_POINTS: usize = 64;
 
@@ -59,27 +65,37 @@ pub enum PrtFormat {
     Prt1Am,
     /// q3map2's PRT1: clusters, portals with flags, then solid faces (see the module docs).
     Q3map2,
+    /// Half-Life's VHLT/SDHLT `hlbsp`: no header word; a leaf count per portal leaf (cluster),
+    /// whose leaves are consecutive vis leaves; portal lines name portal leaves.
+    Vhlt,
+    /// [`PrtFormat::Vhlt`] after `hlvis`'s FixPrt deleted the count lines: which vis leaves a
+    /// portal leaf holds is not in the file, so each portal leaf is read as one vis leaf.
+    VhltFixed,
 }
 
 impl PrtFormat {
-    /// The first token of a file of this variant: `PRT1` (also q3map2's), `PRT2` or `PRT1-AM`.
+    /// The variant's name: the first token of a file of it (`PRT1`, also q3map2's, `PRT2`,
+    /// `PRT1-AM`), or `VHLT` and `VHLT-fixed` for the dialects without a header word.
     pub fn header(self) -> &'static str {
         match self {
             Self::Prt1 | Self::Q3map2 => "PRT1",
             Self::Prt2 => "PRT2",
             Self::Prt1Am => "PRT1-AM",
+            Self::Vhlt => "VHLT",
+            Self::VhltFixed => "VHLT-fixed",
         }
     }
-}
 
-impl PrtFormat {
-    /// The variant whose header is the first token of `text` (leading whitespace skipped); for
-    /// `PRT1`, q3map2's dialect when the first portal line has a number where PRT1 has `(` (or,
-    /// without portals, when a fourth header count follows). Reads at most 7 tokens; `None` when
-    /// the header is none of them.
+    /// The variant of `text` from its first token (leading whitespace skipped): for the VHLT
+    /// dialects (a number first) from the shape of the third line; for `PRT1`, q3map2's dialect
+    /// when the first portal line has a number where PRT1 has `(` (or, without portals, when a
+    /// fourth header count follows). `None` when the header is none of them.
     pub fn of_text(text: &str) -> Option<Self> {
         let mut lx = Lexer { text, pos: 0, line: 1, col: 1 };
         let head = lx.next_token()?.text;
+        if head.parse::<i64>().is_ok() {
+            return Some(vhlt::sniff(text));
+        }
         let format = [Self::Prt1, Self::Prt2, Self::Prt1Am].into_iter().find(|f| f.header() == head)?;
         if format != Self::Prt1 {
             return Some(format);
@@ -148,8 +164,8 @@ pub struct PortalFile {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PrtErrorKind {
-    /// The first token is not `PRT1`, `PRT2` or `PRT1-AM`.
-    #[error("unknown portal file header `{0}`, expected PRT1, PRT2 or PRT1-AM")]
+    /// The first token is not `PRT1`, `PRT2`, `PRT1-AM` or a number (VHLT).
+    #[error("unknown portal file header `{0}`, expected PRT1, PRT2, PRT1-AM or a portal leaf count (VHLT)")]
     BadHeader(String),
     /// End of text where more was needed.
     #[error("unexpected end of file, expected {0}")]
@@ -203,6 +219,9 @@ pub enum PrtErrorKind {
     /// Tokens after the end of the data.
     #[error("trailing data `{0}` after the last record")]
     Trailing(String),
+    /// A negative VHLT leaf count.
+    #[error("portal leaf holds {0} leaves, expected a count >= 0")]
+    BadLeafCount(i64),
 }
 
 /// A `.prt` read error with its location; displays as `file:line:col: message`.
@@ -226,6 +245,9 @@ const MIN_PORTAL_CHARS: usize = 24;
 /// Read a portal file. `file` is only used in error messages.
 pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
+    if r.lx.clone().next_token().is_some_and(|t| t.text.parse::<i64>().is_ok()) {
+        return vhlt::read(r);
+    }
     let head = r.next("a header")?;
     let Some(format) = PrtFormat::of_text(text) else {
         return Err(r.at(&head, PrtErrorKind::BadHeader(shown(head.text))));
@@ -233,7 +255,7 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     let (num_leaves, num_clusters, num_portals);
     let mut num_faces = 0;
     match format {
-        PrtFormat::Prt1 | PrtFormat::Q3map2 => {
+        PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::Vhlt | PrtFormat::VhltFixed => {
             num_leaves = r.count("leaf")?;
             num_clusters = num_leaves;
             num_portals = r.count("portal")?;
@@ -252,12 +274,9 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
             num_leaves = r.count("leaf")?;
         }
     }
-    let remaining = text.len().saturating_sub(r.lx.pos);
-    let pos = r.lx.position();
-    if (num_portals.1 as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
-        return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.1.into() }));
-    }
+    let remaining = r.check_portal_count(num_portals.1)?;
     if (num_faces as usize).saturating_mul(MIN_PORTAL_CHARS - 2) > remaining {
+        let pos = r.lx.position();
         return Err(r.err(pos, PrtErrorKind::CountTooLarge { what: "solid face", count: num_faces.into() }));
     }
     // PRT2 and PRT1-AM list every leaf (at least two characters each); PRT1 leaves need no text.
@@ -284,16 +303,15 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
     }
     let (num_leaves, num_clusters, num_portals) = (num_leaves.1, num_clusters.1, num_portals.1);
     let what = if format == PrtFormat::Prt1 { "leaf" } else { "cluster" };
-    let flags = format == PrtFormat::Q3map2;
-    let mut portals = Vec::with_capacity(num_portals as usize);
-    for _ in 0..num_portals {
-        portals.push(r.portal(num_clusters, what, flags)?);
-    }
+    let portals = r.portals(num_portals, num_clusters, what, format == PrtFormat::Q3map2)?;
     for _ in 0..num_faces {
         r.solid_face(num_clusters)?;
     }
     let leaf_clusters = match format {
-        PrtFormat::Prt1 | PrtFormat::Q3map2 => (0..num_leaves).collect(),
+        // The VHLT dialects never get here (they have no header word): see `vhlt::read`.
+        PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::Vhlt | PrtFormat::VhltFixed => {
+            (0..num_leaves).collect()
+        }
         PrtFormat::Prt2 => r.cluster_lists(num_leaves, num_clusters)?,
         PrtFormat::Prt1Am => {
             let mut v = Vec::with_capacity(num_leaves as usize);
@@ -303,9 +321,7 @@ pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
             v
         }
     };
-    if let Some(tok) = r.lx.next_token() {
-        return Err(r.at(&tok, PrtErrorKind::Trailing(shown(tok.text))));
-    }
+    r.end()?;
     Ok(PortalFile { format, num_leaves, num_clusters, portals, leaf_clusters })
 }
 
@@ -330,6 +346,7 @@ pub fn write(prt: &PortalFile) -> String {
         PrtFormat::Prt1Am => {
             write!(s, "{head}\n{}\n{}\n{}\n", prt.num_clusters, prt.portals.len(), prt.num_leaves)
         }
+        PrtFormat::Vhlt | PrtFormat::VhltFixed => vhlt::write_head(prt, &mut s),
     };
     for p in &prt.portals {
         let _ = write!(s, "{} {} {}", p.winding.points.len(), p.leaves[0], p.leaves[1]);
@@ -342,7 +359,7 @@ pub fn write(prt: &PortalFile) -> String {
         s.push('\n');
     }
     match prt.format {
-        PrtFormat::Prt1 | PrtFormat::Q3map2 => {}
+        PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::Vhlt | PrtFormat::VhltFixed => {}
         PrtFormat::Prt2 => {
             let mut lists: Vec<Vec<u32>> = vec![Vec::new(); prt.num_clusters as usize];
             for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
@@ -382,6 +399,7 @@ struct Token<'a> {
     col: u32,
 }
 
+#[derive(Clone)]
 struct Lexer<'a> {
     text: &'a str,
     pos: usize,
@@ -496,6 +514,40 @@ impl<'a> Reader<'a, '_> {
             return Err(self.at(&tok, PrtErrorKind::NonFinite(shown(tok.text))));
         }
         Ok(v)
+    }
+
+    /// Checks that `num_portals` portal lines can fit the text that remains; returns its length.
+    fn check_portal_count(&self, num_portals: u32) -> Result<usize, PrtError> {
+        let remaining = self.lx.text.len().saturating_sub(self.lx.pos);
+        if (num_portals as usize).saturating_mul(MIN_PORTAL_CHARS) > remaining {
+            let kind = PrtErrorKind::CountTooLarge { what: "portal", count: num_portals.into() };
+            return Err(self.err(self.lx.position(), kind));
+        }
+        Ok(remaining)
+    }
+
+    /// `num_portals` portal lines (already checked by [`Reader::check_portal_count`]) naming
+    /// `what`s below `limit`; `flags`: q3map2's flags field follows the two leaves.
+    fn portals(
+        &mut self,
+        num_portals: u32,
+        limit: u32,
+        what: &'static str,
+        flags: bool,
+    ) -> Result<Vec<PrtPortal>, PrtError> {
+        let mut portals = Vec::with_capacity(num_portals as usize);
+        for _ in 0..num_portals {
+            portals.push(self.portal(limit, what, flags)?);
+        }
+        Ok(portals)
+    }
+
+    /// No token may follow the last record.
+    fn end(&mut self) -> Result<(), PrtError> {
+        match self.lx.next_token() {
+            Some(tok) => Err(self.at(&tok, PrtErrorKind::Trailing(shown(tok.text)))),
+            None => Ok(()),
+        }
     }
 
     /// A point count: 3 to [`MAX_POINTS`].
@@ -729,18 +781,28 @@ mod tests {
     }
 
     fn file() -> impl Strategy<Value = PortalFile> {
-        (1u32..20, 0usize..4).prop_flat_map(|(clusters, kind)| {
-            let format = [PrtFormat::Prt1, PrtFormat::Prt2, PrtFormat::Prt1Am, PrtFormat::Q3map2][kind];
+        (1u32..20, 0usize..6).prop_flat_map(|(clusters, kind)| {
+            let format = [
+                PrtFormat::Prt1,
+                PrtFormat::Prt2,
+                PrtFormat::Prt1Am,
+                PrtFormat::Q3map2,
+                PrtFormat::Vhlt,
+                PrtFormat::VhltFixed,
+            ][kind];
             let leaves = prop::collection::vec(0..clusters, clusters as usize..clusters as usize + 10);
             (prop::collection::vec(portal(clusters), 0..12), leaves).prop_map(move |(portals, mut lc)| {
                 // Every cluster owns at least one leaf; PRT1 is the identity.
                 for (i, c) in lc.iter_mut().enumerate().take(clusters as usize) {
                     *c = i as u32;
                 }
-                if matches!(format, PrtFormat::Prt1 | PrtFormat::Q3map2) {
-                    lc.truncate(clusters as usize);
-                } else if format == PrtFormat::Prt2 {
-                    // The writer lists leaves cluster by cluster, so the reader's order is the same.
+                match format {
+                    PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::VhltFixed => lc.truncate(clusters as usize),
+                    // A VHLT portal leaf holds consecutive leaves.
+                    PrtFormat::Vhlt => lc.sort_unstable(),
+                    // The writer lists PRT2 leaves cluster by cluster, so the reader's order is the
+                    // same.
+                    PrtFormat::Prt2 | PrtFormat::Prt1Am => {}
                 }
                 PortalFile {
                     format,

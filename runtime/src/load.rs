@@ -1,13 +1,16 @@
-//! Loading a [`World`] from `.slvl` or Quake `.bsp` bytes (optionally with the `.prt` file that
-//! the BSP's compiler wrote, to give the portal backend its portals).
+//! Loading a [`World`] from `.slvl` or Quake-family `.bsp` bytes (Quake 1, Half-Life, Quake 2),
+//! optionally with the `.prt` file that a Quake 1 BSP's compiler wrote, to give the portal backend
+//! its portals.
 
 use std::path::Path;
 
+use sightline_formats::bsp::q2;
 use sightline_formats::level::{Level, LevelPlane, Portal};
 use sightline_formats::prt::{self, PortalFile, PrtFormat};
 use sightline_formats::{bsp, slvl};
 
 use crate::error::LoadError;
+use crate::phs::Phs;
 use crate::world::World;
 
 /// Load a `.slvl` file's bytes.
@@ -15,15 +18,26 @@ pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
     World::new(&slvl::read(bytes)?)
 }
 
-/// Load a Quake `.bsp` (BSP29, BSP2, BSP2-RMQ) with its visdata. Leaf `i` of the world is leaf `i`
-/// of the BSP; vis leaf `i` is cluster `i - 1` (see [`bsp::to_level`]). The world has no portals.
-/// A Quake 3 `.bsp` (`IBSP` 46/47) keeps its own clusters and cluster PVS
-/// ([`bsp::q3::to_level`]).
+/// Load a Quake-family `.bsp` with its visdata. Quake 1 and Half-Life (BSP29, BSP2, BSP2-RMQ,
+/// BSP30): leaf `i` of the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1` (see
+/// [`bsp::to_level`]); Quake 2 (`IBSP` 38): as [`load_q2`], without the PHS; Quake 3 (`IBSP`
+/// 46/47): its own clusters and cluster PVS ([`bsp::q3::to_level`]). The world has no portals.
 pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
     if bsp::q3::is_q3(bytes) {
         return World::new(&bsp::q3::to_level(&bsp::q3::read(bytes)?));
     }
+    if q2::is_q2(bytes) {
+        return load_q2(bytes).map(|(world, _)| world);
+    }
     World::new(&bsp::to_level(&bsp::read(bytes)?))
+}
+
+/// Load a Quake 2 `.bsp` (`IBSP` 38): leaves keep their clusters and the PVS rows are the
+/// file's (see [`q2::to_level`]); the PHS comes beside the world when the file is vised.
+pub fn load_q2(bytes: &[u8]) -> Result<(World, Option<Phs>), LoadError> {
+    let file = q2::read(bytes)?;
+    let world = World::new(&q2::to_level(bytes, &file)?)?;
+    Ok((world, Phs::from_q2(&file)))
 }
 
 /// Load a Quake `.bsp` and take its portals from the text of the `.prt` file its compiler wrote.
@@ -39,8 +53,9 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
 }
 
-/// Load a file. For a `.bsp`, the portal file beside it ([`sibling_prt`], the rule `vis` follows
-/// too) is used when present and in PRT1 form (`\n` or `\r\n` line breaks alike). Every error
+/// Load a file. For a Quake 1 or Half-Life `.bsp`, the portal file beside it ([`sibling_prt`], the
+/// rule `vis` follows too) is used when present and in PRT1 form (`\n` or `\r\n` line breaks
+/// alike); a Quake 2 portal file names clusters, not leaves, and is not read. Every error
 /// names the file: [`LoadError::Io`] by itself, the others inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
     let io = |source| LoadError::Io { path: path.display().to_string(), source };
@@ -52,9 +67,9 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) {
         return load_slvl(&bytes).map_err(in_file);
     }
-    // Quake 3 portals join clusters, not leaves: the portal backend cannot use them.
-    if !bsp::q3::is_q3(&bytes)
-        && let Some(prt_path) = sibling_prt(path)
+    // Quake 2 and Quake 3 portals (every `IBSP`) join clusters, not leaves: the portal backend
+    // cannot use them.
+    if let Some(prt_path) = sibling_prt(path).filter(|_| !q2::is_q2(&bytes))
         && let Ok(prt_bytes) = std::fs::read(&prt_path)
         && let text = String::from_utf8_lossy(&prt_bytes)
         && PrtFormat::of_text(&text) == Some(PrtFormat::Prt1)

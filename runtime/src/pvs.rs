@@ -232,6 +232,13 @@ impl PvsRows {
         }
     }
 
+    /// Rows of `num_clusters` bits at `offsets` (one per cluster, or none: no vis) in `data`,
+    /// each already checked to decode (as [`sightline_formats::bsp::q2::read`] checks a Quake 2
+    /// visibility lump's rows).
+    pub fn from_parts(num_clusters: u32, offsets: Vec<u32>, data: Vec<u8>) -> Self {
+        Self { num_clusters, row_bytes: bits::bytes::len(num_clusters as usize), offsets, data }
+    }
+
     /// True when the level carries a PVS.
     pub fn has_vis(&self) -> bool {
         !self.offsets.is_empty()

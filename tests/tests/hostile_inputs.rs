@@ -259,6 +259,11 @@ fn q2_bsp_reader_survives_hostile_files() {
                 }
                 match bsp::q2::read(data) {
                     Ok(b) => {
+                        // The whole-file reader gives a level that passes `.slvl` validation, or
+                        // an error.
+                        if let Ok(level) = bsp::q2::to_level(data, &b) {
+                            assert_eq!(slvl::validate(&level), Ok(()));
+                        }
                         if let Some(vis) = &b.vis {
                             // Decompressing every row is bounded by the clusters, not the input;
                             // mutations keep the cluster count of a real file.
@@ -334,6 +339,59 @@ fn q3map2_prt_reader_survives_hostile_text() {
         |data| prt::read_bytes(data, "hostile.prt").is_ok(),
     );
     assert!(rejected > 300, "only {rejected} of 600 mutated q3map2 portal files rejected");
+}
+
+#[test]
+fn half_life_bsp_and_vhlt_portal_files_survive_hostile_files() {
+    let Some(plain) = shared("hl/lq_e0m1.sdhlt.bsp") else { return };
+    let vised = shared("hl/lq_e0m1.sdhlt.vis.bsp").expect("lq_e0m1.sdhlt.vis.bsp");
+    let rejected = hammer(
+        "bsp30",
+        &[plain, vised],
+        800,
+        31,
+        |r, d| mutate(r, d, bsp::HEADER_BYTES),
+        linear_bound,
+        |data| match bsp::read(data) {
+            Ok(b) => {
+                let _ = b.pvs_stats();
+                assert_eq!(slvl::validate(&bsp::to_level(&b)), Ok(()));
+                true
+            }
+            Err(e) => {
+                // Errors name the byte offset (or the header).
+                assert!(e.to_string().starts_with("byte ") || e.to_string().contains("header"), "{e}");
+                false
+            }
+        },
+    );
+    assert!(rejected > 250, "only {rejected} of 1600 mutated BSP30 files rejected");
+
+    let counts = shared("hl/lq_e0m1.sdhlt.prt").expect("lq_e0m1.sdhlt.prt");
+    let fixed = shared("hl/lq_e0m1.sdhlt.fixed.prt").expect("lq_e0m1.sdhlt.fixed.prt");
+    let rejected = hammer(
+        "vhlt prt",
+        &[counts, fixed],
+        300,
+        32,
+        |r, d| if r.below(2) == 0 { mutate_text(r, d).into_bytes() } else { mutate(r, d, 64) },
+        linear_bound,
+        |data| match prt::read_bytes(data, "hostile.prt") {
+            Ok(f) => {
+                // Whatever reads is consistent: it sniffs as its dialect, and a VHLT portal leaf
+                // holds consecutive leaves.
+                assert_eq!(prt::PrtFormat::of_text(&String::from_utf8_lossy(data)), Some(f.format));
+                assert_eq!(f.leaf_clusters.len(), f.num_leaves as usize);
+                assert!(f.leaf_clusters.windows(2).all(|w| w[0] <= w[1]));
+                true
+            }
+            Err(e) => {
+                assert!(e.to_string().starts_with("hostile.prt:"), "{e}");
+                false
+            }
+        },
+    );
+    assert!(rejected > 200, "only {rejected} of 600 mutated VHLT portal files rejected");
 }
 
 /// `.slvl` files expand lz4 lumps: the reader allows all lumps together

@@ -23,29 +23,14 @@ use std::collections::HashMap;
 /// - Unknown contents codes (none of Quake's six) become [`Contents::Empty`] (open).
 /// - `leaf_faces` are the BSP's marksurfaces; the level has no portals and no GVS cells.
 pub fn to_level(bsp: &Bsp) -> Level {
-    let mut planes: Vec<LevelPlane> =
-        bsp.planes.iter().map(|p| LevelPlane { normal: p.normal, dist: p.dist }).collect();
-    let mut flipped: HashMap<u32, u32> = HashMap::new();
-
     let textures: Vec<String> =
         bsp.textures.iter().map(|t| t.as_ref().map(|t| t.name.clone()).unwrap_or_default()).collect();
-    let mut vertices = Vec::new();
-    let mut faces = Vec::with_capacity(bsp.faces.len());
+    let mut polygons = Polygons::new(bsp.planes.iter().map(|p| (p.normal, p.dist)), bsp.faces.len());
     for f in &bsp.faces {
-        let plane = if f.back {
-            *flipped.entry(f.plane).or_insert_with(|| {
-                let p = bsp.planes[f.plane as usize];
-                planes.push(LevelPlane { normal: p.normal.map(|c| -c), dist: -p.dist });
-                (planes.len() - 1) as u32
-            })
-        } else {
-            f.plane
-        };
-        let first_vertex = vertices.len() as u32;
-        vertices.extend(bsp.face_vertex_indices(f).map(|v| bsp.vertices[v as usize]));
-        let texture = bsp.texinfo[f.texinfo as usize].miptex;
-        faces.push(Face { plane, first_vertex, num_vertices: vertices.len() as u32 - first_vertex, texture });
+        let corners = bsp.face_vertex_indices(f).map(|v| bsp.vertices[v as usize]);
+        polygons.push(f.plane, f.back, corners, bsp.texinfo[f.texinfo as usize].miptex);
     }
+    let Polygons { planes, vertices, faces, .. } = polygons;
 
     let nodes = bsp
         .nodes
@@ -100,6 +85,46 @@ pub fn to_level(bsp: &Bsp) -> Level {
         pvs_data,
         gvs_cells: Vec::new(),
         gvs_faces: Vec::new(),
+    }
+}
+
+/// A BSP's faces as level faces, each with its own corners and seen from its plane's front: a
+/// face seen from the back of its plane gets a flipped copy of the plane, appended after the
+/// BSP's planes once per plane (Quake 1 and Quake 2 alike).
+pub(super) struct Polygons {
+    /// The BSP's planes, then the flipped copies.
+    pub planes: Vec<LevelPlane>,
+    /// Flipped copy of each plane flipped so far.
+    flipped: HashMap<u32, u32>,
+    /// Corners of every face, back to back.
+    pub vertices: Vec<[f32; 3]>,
+    /// The faces.
+    pub faces: Vec<Face>,
+}
+
+impl Polygons {
+    /// Starts from the BSP's planes (`(normal, dist)`), for about `faces` faces.
+    pub fn new(planes: impl Iterator<Item = ([f32; 3], f32)>, faces: usize) -> Self {
+        let planes = planes.map(|(normal, dist)| LevelPlane { normal, dist }).collect();
+        Self { planes, flipped: HashMap::new(), vertices: Vec::new(), faces: Vec::with_capacity(faces) }
+    }
+
+    /// Adds a face on BSP plane `plane` (checked to exist), seen from its back when `back`.
+    pub fn push(&mut self, plane: u32, back: bool, corners: impl Iterator<Item = [f32; 3]>, texture: u32) {
+        let plane = if back {
+            let planes = &mut self.planes;
+            *self.flipped.entry(plane).or_insert_with(|| {
+                let p = planes[plane as usize];
+                planes.push(LevelPlane { normal: p.normal.map(|c| -c), dist: -p.dist });
+                (planes.len() - 1) as u32
+            })
+        } else {
+            plane
+        };
+        let first_vertex = self.vertices.len() as u32;
+        self.vertices.extend(corners);
+        let num_vertices = self.vertices.len() as u32 - first_vertex;
+        self.faces.push(Face { plane, first_vertex, num_vertices, texture });
     }
 }
 

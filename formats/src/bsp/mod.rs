@@ -1,4 +1,8 @@
-//! Quake BSP files: BSP29, BSP2 and BSP2-RMQ (`2PSB`).
+//! Quake BSP files: BSP29, BSP2 and BSP2-RMQ (`2PSB`), and Half-Life's BSP30.
+//!
+//! BSP30 keeps BSP29's lumps and records; it differs only outside what is decoded here (RGB
+//! light maps, WAD3 miptex that may embed pixels and a palette after the 40-byte header this
+//! reader takes the name and size from), so it reads, vis-writes and converts exactly as BSP29.
 //!
 //! [`read`] checks the header and every lump against the file, decodes the lumps that visibility
 //! and drawing need into typed records, and validates every index (node children, planes, faces,
@@ -103,15 +107,21 @@ pub enum BspVersion {
     Bsp2,
     /// `2PSB` (BSP2-RMQ): 32-bit indices and children, 16-bit bounds.
     Bsp2Rmq,
+    /// Half-Life (GoldSrc): version `30`, BSP29's records.
+    Bsp30,
 }
 
 impl BspVersion {
+    /// Every version this module reads.
+    pub const ALL: [Self; 4] = [Self::Bsp29, Self::Bsp2, Self::Bsp2Rmq, Self::Bsp30];
+
     /// The four bytes that start the file.
     pub fn magic(self) -> [u8; 4] {
         match self {
             Self::Bsp29 => 29i32.to_le_bytes(),
             Self::Bsp2 => *b"BSP2",
             Self::Bsp2Rmq => *b"2PSB",
+            Self::Bsp30 => 30i32.to_le_bytes(),
         }
     }
 
@@ -121,13 +131,24 @@ impl BspVersion {
             Self::Bsp29 => "BSP29",
             Self::Bsp2 => "BSP2",
             Self::Bsp2Rmq => "BSP2-RMQ",
+            Self::Bsp30 => "BSP30",
         }
+    }
+
+    /// The game family: `"Half-Life"` for BSP30, else `"Quake"`.
+    pub fn game(self) -> &'static str {
+        if self == Self::Bsp30 { "Half-Life" } else { "Quake" }
+    }
+
+    /// True for BSP29's 16-bit indices, children and face fields (BSP29 and BSP30).
+    pub fn narrow(self) -> bool {
+        matches!(self, Self::Bsp29 | Self::Bsp30)
     }
 
     /// Bytes of one leaf record.
     pub fn leaf_bytes(self) -> usize {
         match self {
-            Self::Bsp29 => 28,
+            Self::Bsp29 | Self::Bsp30 => 28,
             Self::Bsp2 => 44,
             Self::Bsp2Rmq => 32,
         }
@@ -311,13 +332,13 @@ pub enum BspError {
         len: usize,
     },
     /// A Quake 2 BSP (`IBSP`), which this reader does not take: [`q2::read`] does.
-    #[error("byte 0: Quake 2 BSP (IBSP {version}), not a Quake 1 BSP (29, BSP2 or 2PSB)")]
+    #[error("byte 0: Quake 2 BSP (IBSP {version}), not a Quake 1 BSP (29, BSP2, 2PSB) or Half-Life BSP (30)")]
     Quake2 {
         /// The version field (38 for Quake 2).
         version: i32,
     },
     /// Unknown version field.
-    #[error("byte 0: unknown BSP version {magic:02x?} (expected 29, BSP2 or 2PSB)")]
+    #[error("byte 0: unknown BSP version {magic:02x?} (expected 29, BSP2, 2PSB or 30)")]
     Version {
         /// The first four bytes.
         magic: [u8; 4],
@@ -432,6 +453,8 @@ pub struct PvsStats {
     pub avg_visible: f64,
     /// Largest number of visible leaves of one vis leaf.
     pub max_visible: usize,
+    /// Ordered visible (vis leaf, vis leaf) pairs, self included: the bits set in all rows.
+    pub pairs: u64,
     /// Size of the visibility lump.
     pub visdata_bytes: usize,
 }
@@ -498,6 +521,7 @@ impl Bsp {
             visleafs,
             avg_visible: total as f64 / visleafs as f64,
             max_visible: max,
+            pairs: total as u64,
             visdata_bytes: self.visdata.len(),
         }))
     }
@@ -585,8 +609,13 @@ mod tests {
         let good = tiny(&[1], -1);
         assert_eq!(read(&good[..100]), Err(BspError::TooShort { len: 100 }));
         let mut bad = good.clone();
-        bad[0] = 30;
+        bad[0] = 31;
         assert!(matches!(read(&bad), Err(BspError::Version { .. })));
+        // Half-Life's BSP30 has BSP29's records.
+        bad[0] = 30;
+        let hl = read(&bad).unwrap();
+        assert_eq!((hl.version, hl.version.game()), (BspVersion::Bsp30, "Half-Life"));
+        assert_eq!((hl.leaves, hl.nodes), (read(&good).unwrap().leaves, read(&good).unwrap().nodes));
         let q2 = read(b"IBSP\x26\0\0\0").unwrap_err();
         assert_eq!(q2, BspError::Quake2 { version: 38 });
         assert!(q2.to_string().contains("Quake 2 BSP (IBSP 38)"), "{q2}");

@@ -9,14 +9,14 @@ use crate::tree_check::find_cycle;
 
 fn node_bytes(version: BspVersion) -> usize {
     match version {
-        BspVersion::Bsp29 => 24,
+        BspVersion::Bsp29 | BspVersion::Bsp30 => 24,
         BspVersion::Bsp2 => 44,
         BspVersion::Bsp2Rmq => 32,
     }
 }
 
 fn face_bytes(version: BspVersion) -> usize {
-    if version == BspVersion::Bsp29 { 20 } else { 28 }
+    if version.narrow() { 20 } else { 28 }
 }
 
 /// The lump's bytes split into records of `size`, each with its byte offset in the file.
@@ -26,11 +26,22 @@ fn records<'a>(
     index: usize,
     size: usize,
 ) -> Result<impl Iterator<Item = (usize, Rec<'a>)>, BspError> {
+    lump_records(bytes, lumps, &lump::NAMES, index, size)
+}
+
+/// As [`records`], for any Quake-family lump table (`names` names the lumps in errors).
+pub(super) fn lump_records<'a, const N: usize>(
+    bytes: &'a [u8],
+    lumps: &[LumpEntry; N],
+    names: &[&'static str; N],
+    index: usize,
+    size: usize,
+) -> Result<impl Iterator<Item = (usize, Rec<'a>)> + use<'a, N>, BspError> {
     let entry = lumps[index];
     if !entry.length.is_multiple_of(size) {
         return Err(BspError::LumpSize {
             offset: entry.offset,
-            name: lump::NAMES[index],
+            name: names[index],
             length: entry.length,
             record: size,
         });
@@ -39,12 +50,12 @@ fn records<'a>(
     Ok(data.chunks_exact(size).enumerate().map(move |(i, chunk)| (entry.offset + i * size, Rec::new(chunk))))
 }
 
-fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
+pub(super) fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
     BspError::Invalid { offset, what: what.into(), detail: detail.into() }
 }
 
 /// Checks that `first..first + count` lies within `0..len`.
-fn check_range(
+pub(super) fn check_range(
     offset: usize,
     what: &str,
     index: usize,
@@ -63,7 +74,8 @@ fn check_range(
     Ok(())
 }
 
-fn check_index(
+/// Checks that `value` indexes `0..len`.
+pub(super) fn check_index(
     offset: usize,
     what: &str,
     index: usize,
@@ -77,7 +89,13 @@ fn check_index(
     Ok(())
 }
 
-fn non_negative(offset: usize, what: &str, index: usize, field: &str, value: i32) -> Result<u32, BspError> {
+pub(super) fn non_negative(
+    offset: usize,
+    what: &str,
+    index: usize,
+    field: &str,
+    value: i32,
+) -> Result<u32, BspError> {
     u32::try_from(value)
         .map_err(|_| invalid(offset, format!("{what} {index}"), format!("negative {field} {value}")))
 }
@@ -92,10 +110,8 @@ pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_L
     }
     let mut head = Rec::new(bytes);
     let magic: [u8; 4] = head.take();
-    let version = [BspVersion::Bsp29, BspVersion::Bsp2, BspVersion::Bsp2Rmq]
-        .into_iter()
-        .find(|v| v.magic() == magic)
-        .ok_or(BspError::Version { magic })?;
+    let version =
+        BspVersion::ALL.into_iter().find(|v| v.magic() == magic).ok_or(BspError::Version { magic })?;
     Ok((version, read_lump_table(bytes, &mut head, &lump::NAMES)?))
 }
 
@@ -163,7 +179,7 @@ fn read_textures(bytes: &[u8], entry: LumpEntry) -> Result<Vec<Option<MipTex>>, 
 
 pub(super) fn read(bytes: &[u8]) -> Result<Bsp, BspError> {
     let (version, lumps) = read_header(bytes)?;
-    let wide = version != BspVersion::Bsp29;
+    let wide = !version.narrow();
 
     let ent = &bytes[lumps[lump::ENTITIES].offset..lumps[lump::ENTITIES].end()];
     let ent = &ent[..ent.iter().position(|&b| b == 0).unwrap_or(ent.len())];
@@ -294,7 +310,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Bsp, BspError> {
 /// Decodes stored children into Quake's signed encoding and checks them.
 fn resolve_children(bsp: &mut Bsp, raw: &[(usize, [i64; 2])]) -> Result<(), BspError> {
     let (num_nodes, num_leaves) = (bsp.nodes.len(), bsp.leaves.len());
-    let narrow = bsp.version == BspVersion::Bsp29;
+    let narrow = bsp.version.narrow();
     for (i, (node, &(offset, stored))) in bsp.nodes.iter_mut().zip(raw).enumerate() {
         for (child, &value) in node.children.iter_mut().zip(&stored) {
             let decoded = if narrow && value >= num_nodes as i64 { -(65535 - value) - 1 } else { value };
@@ -363,14 +379,14 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
         let at = rec_offset(bsp, lump::SURFEDGES, 4, i);
         check_index(at, "surfedge", i, e.unsigned_abs().into(), bsp.edges.len(), "edges")?;
     }
-    let edge_size = if v == BspVersion::Bsp29 { 4 } else { 8 };
+    let edge_size = if v.narrow() { 4 } else { 8 };
     for (i, e) in bsp.edges.iter().enumerate() {
         let at = rec_offset(bsp, lump::EDGES, edge_size, i);
         for &vert in e {
             check_index(at, "edge", i, vert.into(), bsp.vertices.len(), "vertices")?;
         }
     }
-    let mark_size = if v == BspVersion::Bsp29 { 2 } else { 4 };
+    let mark_size = if v.narrow() { 2 } else { 4 };
     for (i, &m) in bsp.marksurfaces.iter().enumerate() {
         check_index(
             rec_offset(bsp, lump::MARKSURFACES, mark_size, i),

@@ -15,9 +15,12 @@
 //!   `int16 cluster`, `int16 area`, bounds and indices (not decoded here).
 
 use super::{BspError, LumpEntry};
+
+mod level;
 use crate::bits;
 use crate::le::Rec;
 use crate::rle;
+pub use level::{contents, to_level};
 
 /// The four bytes that start a Quake 2 BSP.
 pub const MAGIC: [u8; 4] = *b"IBSP";
@@ -123,6 +126,18 @@ impl Q2Vis {
             leaf: c,
             source,
         })
+    }
+
+    /// Ordered cluster pairs `(c, j)` with bit `j` set in row `which` of `c`: the bits of every
+    /// row, decoded one at a time.
+    pub fn pairs(&self, which: Q2Row) -> Result<u64, BspError> {
+        let mut row = vec![0; self.row_bytes()];
+        let mut total = 0;
+        for c in 0..self.num_clusters {
+            self.decode_into(c, which, &mut row)?;
+            total += rle::count_bits(&row) as u64;
+        }
+        Ok(total)
     }
 
     /// Every row `which` decoded, back to back: allocates `num_clusters * row_bytes` bytes, which

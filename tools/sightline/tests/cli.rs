@@ -797,10 +797,11 @@ fn vis_on_a_quake2_bsp_writes_pvs_and_phs_and_phs_only_repairs_ericw() {
         (Some(15), Some(103), Some(149))
     );
     assert!(j["visibility_bytes"].as_u64().expect("visibility_bytes") > 4 + 8 * 15);
-    // `info` and the Quake 1 reader name the format instead of misreading it.
-    let o = run(&["info", s(&dir.join("leak.bsp"))]);
-    assert_eq!(code(&o), 2);
-    assert!(stderr(&o).contains("Quake 2 BSP (IBSP 38)"), "{}", stderr(&o));
+    // `info` reads Quake 2 files: clusters and the pairs of the PVS and PHS just written.
+    let o = run(&["info", s(&dir.join("leak.bsp")), "--json"]);
+    let j = stdout_json(&o);
+    assert_eq!((j["game"].as_str(), j["clusters"].as_u64()), (Some("quake2"), Some(15)), "{j}");
+    assert_eq!((j["pvs_pairs"].as_u64(), j["phs_pairs"].as_u64()), (Some(103), Some(149)));
 
     let Some(ericw) = shared_map("q2/q2_detail_leak_test.ericw.bsp") else { return };
     let fix = temp_dir("q2-phs-only");
@@ -869,4 +870,31 @@ fn quake3_vis_info_validate_and_bad_files() {
     assert_eq!(code(&o), 2);
     assert!(stderr(&o).contains("fan.prt:5:8: expected portal flags"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn half_life_vis_errors_exit_2_naming_the_file() {
+    let Some(src) = shared_map("hl/lq_e0m1.sdhlt.bsp") else { return };
+    let dir = temp_dir("hl-errors");
+    let (bsp, prt) = (dir.join("m.bsp"), dir.join("m.prt"));
+    let bytes = std::fs::read(&src).expect("read .bsp");
+    let text = std::fs::read_to_string(src.with_extension("prt")).expect("read .prt");
+    // A truncated BSP30: the error names the file and the lump.
+    std::fs::write(&bsp, &bytes[..bytes.len() / 2]).expect("write");
+    std::fs::write(&prt, &text).expect("write");
+    let o = run(&["vis", s(&bsp)]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(stderr(&o).contains("m.bsp") && stderr(&o).contains("lump"), "{}", stderr(&o));
+    // A VHLT portal file with a negative leaf count: named with its line and column.
+    std::fs::write(&bsp, &bytes).expect("write");
+    std::fs::write(&prt, text.replacen("\n1\n", "\n-1\n", 1)).expect("write");
+    let o = run(&["vis", s(&bsp)]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(stderr(&o).contains("m.prt:3:1") && stderr(&o).contains("-1 leaves"), "{}", stderr(&o));
+    // Counts that do not add up to the BSP's vis leaves.
+    std::fs::write(&prt, text.replacen("\n1\n", "\n2\n", 1)).expect("write");
+    let o = run(&["vis", s(&bsp)]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(stderr(&o).contains("658 vis leaves") && stderr(&o).contains("659"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&bsp).expect("read"), bytes, "nothing written on an error");
 }

@@ -20,7 +20,7 @@ pub enum LoadError {
         #[source]
         source: std::io::Error,
     },
-    /// A `.bsp` file that is not a valid Quake BSP.
+    /// A `.bsp` file that is not a valid Quake-family BSP.
     #[error("{}", .path.display())]
     Bsp {
         /// The file.
@@ -46,19 +46,24 @@ pub enum LoadError {
     },
 }
 
-/// Read a Sightline `.slvl`, or a Quake `.bsp` (through [`bsp::to_level`]: one cluster per vis
-/// leaf; a Quake 3 `.bsp` through [`bsp::q3::to_level`]: its clusters, opaque leaves solid), as a
-/// [`Level`].
+/// Read a Sightline `.slvl`, or a Quake-family `.bsp` as a [`Level`]: Quake 1 and Half-Life
+/// through [`bsp::to_level`] (one cluster per vis leaf), Quake 2 through [`bsp::q2::to_level`]
+/// (the file's clusters), Quake 3 through [`bsp::q3::to_level`] (its clusters, opaque leaves
+/// solid).
 pub fn load_level(path: &Path) -> Result<Level, LoadError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
     match ext.as_str() {
         "bsp" => {
-            let bsp_err = |source| LoadError::Bsp { path: path.to_path_buf(), source };
+            let err = |source| LoadError::Bsp { path: path.to_path_buf(), source };
             if bsp::q3::is_q3(&bytes) {
-                return Ok(bsp::q3::to_level(&bsp::q3::read(&bytes).map_err(bsp_err)?));
+                return Ok(bsp::q3::to_level(&bsp::q3::read(&bytes).map_err(err)?));
             }
-            Ok(bsp::to_level(&bsp::read(&bytes).map_err(bsp_err)?))
+            if bsp::q2::is_q2(&bytes) {
+                let file = bsp::q2::read(&bytes).map_err(err)?;
+                return bsp::q2::to_level(&bytes, &file).map_err(err);
+            }
+            Ok(bsp::to_level(&bsp::read(&bytes).map_err(err)?))
         }
         "slvl" => slvl::read(&bytes).map_err(|source| LoadError::Slvl { path: path.to_path_buf(), source }),
         _ => Err(LoadError::UnknownExtension { path: path.to_path_buf() }),

@@ -2,16 +2,18 @@
 //! solid leaves.
 //!
 //! A ray's free part ends at the first world-face triangle it hits. Liquid surfaces let sight
-//! through, as Quake's vis does: faces whose texture name starts with `*`, or (for files without
-//! texture names) faces whose two sides, probed 0.05 units off the face's middle, are both leaves
-//! sight passes. Every other face, sky included, blocks (conservative: fewer pairs, never a false
-//! miss). The open
+//! through, as Quake's vis does: faces whose two sides, probed 0.05 units off the face's middle,
+//! are both leaves sight passes, and faces whose texture name starts with `*` unless one of
+//! those sides is solid (SDHLT builds some `*` brushes as solid: Half-Life's start has a `*lava`
+//! face over solid, which no vis sees through). Every other face, sky included, blocks
+//! (conservative: fewer pairs, never a false miss). The open
 //! leaves on the free part are found by walking the tree *through* solid leaves, so a solid sliver
 //! the tree has but the geometry does not (no face on it) cannot stop the ray. The walk does stop
 //! at a solid stretch longer than [`MAX_SOLID_GAP`] units: beyond it the ray has left the faced
 //! world (for example through the unfaced outside of a sky brush) and its leaves mean nothing.
 
 use glam::{DVec3, Vec3};
+use sightline_formats::Contents;
 use sightline_formats::texture::TextureKind;
 use sightline_raycast::Bvh;
 
@@ -82,7 +84,12 @@ impl<'a> MeshOracle<'a> {
             };
             let liquid_name =
                 level.textures.get(f.texture as usize).is_some_and(|t| TextureKind::of(t).is_liquid());
-            let through = liquid_name || open_on_both_sides(tree, f.plane, corners);
+            let [front, back] = face_sides(tree, f.plane, corners);
+            let solid = |leaf: Option<usize>| {
+                leaf.and_then(|l| level.leaves.get(l)).is_some_and(|l| l.contents == Contents::Solid)
+            };
+            let open = |leaf: Option<usize>| leaf.is_some_and(|l| tree.is_open(l));
+            let through = (open(front) && open(back)) || (liquid_name && !solid(front) && !solid(back));
             for k in 2..corners.len() {
                 triangles.push([Vec3::from(corners[0]), Vec3::from(corners[k - 1]), Vec3::from(corners[k])]);
                 see_through.push(through);
@@ -115,15 +122,14 @@ impl<'a> MeshOracle<'a> {
     }
 }
 
-/// True when the leaves just in front of and just behind the middle of a face both let sight
-/// through: the face separates two see-through contents (a water surface in a file whose
-/// texture names are not stored).
-fn open_on_both_sides(tree: &BspTree<'_>, plane: u32, corners: &[[f32; 3]]) -> bool {
-    let Some(p) = tree.level().planes.get(plane as usize) else { return false };
+/// The leaves just in front of and just behind the middle of a face ([`FACE_PROBE`] off it);
+/// `None` for a face whose plane the level lacks.
+fn face_sides(tree: &BspTree<'_>, plane: u32, corners: &[[f32; 3]]) -> [Option<usize>; 2] {
+    let Some(p) = tree.level().planes.get(plane as usize) else { return [None; 2] };
     let n = DVec3::from(p.normal.map(f64::from));
     let centre =
         corners.iter().map(|c| DVec3::from(c.map(f64::from))).sum::<DVec3>() / corners.len().max(1) as f64;
-    tree.is_open(tree.leaf_at(centre + n * FACE_PROBE)) && tree.is_open(tree.leaf_at(centre - n * FACE_PROBE))
+    [Some(tree.leaf_at(centre + n * FACE_PROBE)), Some(tree.leaf_at(centre - n * FACE_PROBE))]
 }
 
 impl RayOracle for MeshOracle<'_> {

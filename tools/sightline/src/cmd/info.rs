@@ -105,7 +105,7 @@ pub enum Details {
     },
     /// A `.prt` portal file.
     Prt {
-        /// `"prt1"`, `"prt2"`, `"prt1_am"` or `"q3map2"`.
+        /// `"prt1"`, `"prt2"`, `"prt1_am"`, `"q3map2"`, `"vhlt"` or `"vhlt_fixed"`.
         format: &'static str,
         /// Vis leaves.
         leaves: u32,
@@ -116,14 +116,18 @@ pub enum Details {
         /// Box around every portal winding; `null` without portals.
         bounds: Option<Bounds>,
     },
-    /// A Quake BSP.
+    /// A Quake-family BSP.
     Bsp {
-        /// `"BSP29"`, `"BSP2"` or `"BSP2-RMQ"`.
+        /// `"quake"`, `"half-life"` or `"quake2"`.
+        game: &'static str,
+        /// `"BSP29"`, `"BSP2"`, `"BSP2-RMQ"`, `"BSP30"` or `"IBSP38"`.
         version: &'static str,
         /// Leaves including the shared solid leaf 0.
         leaves: usize,
-        /// Leaves with PVS rows (world model's `visleafs`).
+        /// Leaves with PVS rows (world model's `visleafs`); Quake 2: leaves with a cluster.
         visleafs: usize,
+        /// Quake 2 only: clusters (PVS row length in bits).
+        clusters: Option<usize>,
         /// Brush models including the world.
         models: usize,
         /// Size of the visibility lump.
@@ -132,6 +136,11 @@ pub enum Details {
         has_vis: bool,
         /// Decoded from the rows (a leaf without a row sees every vis leaf); `null` without vis leaves.
         pvs: Option<PvsSummary>,
+        /// Ordered visible pairs, self included, of vis leaves (Quake 2: of clusters); `null`
+        /// without vis leaves (Quake 2: without vis).
+        pvs_pairs: Option<u64>,
+        /// Quake 2 only, when vised: ordered cluster pairs of the PHS.
+        phs_pairs: Option<u64>,
         /// World model bounds; `null` without models.
         bounds: Option<Bounds>,
     },
@@ -206,6 +215,9 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
         FileKind::Bsp if bsp::q3::is_q3(&bytes) => {
             q3_details(&bsp::q3::read(&bytes).with_context(|| format!("{name}: invalid Quake 3 BSP"))?)
         }
+        FileKind::Bsp if bsp::q2::is_q2(&bytes) => {
+            q2_details(&bytes).with_context(|| format!("{name}: invalid Quake 2 BSP"))?
+        }
         FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
             .with_context(|| format!("{name}: bad PVS row"))?,
         FileKind::Slvl => slvl_details(&bytes).with_context(|| format!("{name}: invalid level"))?,
@@ -236,6 +248,8 @@ fn prt_details(p: &prt::PortalFile) -> Details {
             prt::PrtFormat::Prt2 => "prt2",
             prt::PrtFormat::Prt1Am => "prt1_am",
             prt::PrtFormat::Q3map2 => "q3map2",
+            prt::PrtFormat::Vhlt => "vhlt",
+            prt::PrtFormat::VhltFixed => "vhlt_fixed",
         },
         leaves: p.num_leaves,
         clusters: p.num_clusters,
@@ -247,14 +261,18 @@ fn prt_details(p: &prt::PortalFile) -> Details {
 fn bsp_details(b: &bsp::Bsp) -> anyhow::Result<Details> {
     let stats = b.pvs_stats()?;
     Ok(Details::Bsp {
+        game: if b.version == bsp::BspVersion::Bsp30 { "half-life" } else { "quake" },
         version: b.version.name(),
         leaves: b.leaves.len(),
         visleafs: b.visleafs(),
+        clusters: None,
         models: b.models.len(),
         visdata_bytes: b.visdata.len(),
         has_vis: !b.visdata.is_empty(),
         pvs: stats
             .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
+        pvs_pairs: stats.map(|s| s.pairs),
+        phs_pairs: None,
         bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
     })
 }
@@ -278,6 +296,31 @@ fn q3_details(b: &bsp::q3::Q3Bsp) -> Details {
         }),
         bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
     }
+}
+
+/// A Quake 2 BSP: the whole file as a level ([`bsp::q2::to_level`]) for leaf counts and the PVS
+/// summary, the visibility lump for the cluster pairs of the PVS and the PHS.
+fn q2_details(bytes: &[u8]) -> anyhow::Result<Details> {
+    use bsp::q2::{self, Q2Row};
+    let file = q2::read(bytes)?;
+    let level = q2::to_level(bytes, &file)?;
+    let vis = file.vis.as_ref();
+    Ok(Details::Bsp {
+        game: "quake2",
+        version: "IBSP38",
+        leaves: level.leaves.len(),
+        visleafs: level.vis_leaves(),
+        clusters: Some(level.num_clusters as usize),
+        models: level.models.len(),
+        visdata_bytes: file.lumps[q2::lump::VISIBILITY].length,
+        has_vis: vis.is_some(),
+        pvs: level
+            .pvs_stats()?
+            .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
+        pvs_pairs: vis.map(|v| v.pairs(Q2Row::Pvs)).transpose()?,
+        phs_pairs: vis.map(|v| v.pairs(Q2Row::Phs)).transpose()?,
+        bounds: level.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+    })
 }
 
 fn slvl_details(bytes: &[u8]) -> anyhow::Result<Details> {
@@ -339,12 +382,32 @@ impl InfoReport {
                 line("portals", portals.to_string());
                 line("bounds", bounds(b));
             }
-            Details::Bsp { version, leaves, visleafs, models, visdata_bytes, has_vis, pvs: p, bounds: b } => {
-                line("kind", format!("bsp ({version})"));
-                line("leaves", format!("{leaves} ({visleafs} vis leaves)"));
+            Details::Bsp {
+                game,
+                version,
+                leaves,
+                visleafs,
+                clusters,
+                models,
+                visdata_bytes,
+                has_vis,
+                pvs: p,
+                pvs_pairs,
+                phs_pairs,
+                bounds: b,
+            } => {
+                line("kind", format!("bsp ({version}, {game})"));
+                let clusters = clusters.map_or(String::new(), |c| format!(", {c} clusters"));
+                line("leaves", format!("{leaves} ({visleafs} vis leaves{clusters})"));
                 line("models", models.to_string());
                 line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
                 line("pvs", pvs(p));
+                if let Some(n) = pvs_pairs {
+                    line("pvs pairs", n.to_string());
+                }
+                if let Some(n) = phs_pairs {
+                    line("phs pairs", n.to_string());
+                }
                 line("bounds", bounds(b));
             }
             Details::Q3Bsp {

@@ -30,7 +30,7 @@ impl From<OracleArg> for OracleChoice {
 /// Arguments of `sightline validate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A Quake `.bsp` with visdata, or a Sightline `.slvl`.
+    /// A Quake-family `.bsp` with visdata (Quake 1, Half-Life, Quake 2), or a Sightline `.slvl`.
     pub input: std::path::PathBuf,
     /// Ray budget per oracle, spread evenly over the open leaves (10 rays per bundle: 5 lines
     /// cast both ways); at least 1 (every open leaf gets at least one bundle, so a small budget

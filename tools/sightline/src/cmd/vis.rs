@@ -45,8 +45,8 @@ reads e1m1.bsp; single-dash options (-threads N, -fast, -level N, -noambient, -n
 may come before or after the file, and -v, -verbose, -nolog, -nopercent, -nostat and other \
 logging options are accepted and ignored.")]
 pub struct Args {
-    /// A Quake `.bsp` (its `.prt` must sit beside it), a base name (`e1m1` for `e1m1.bsp`), or a
-    /// `.prt` file.
+    /// A Quake, Half-Life or Quake 2 `.bsp` (its `.prt` must sit beside it), a base name (`e1m1`
+    /// for `e1m1.bsp`), or a `.prt` file.
     pub input: PathBuf,
     /// Worker threads (0: every core). The result is the same for any count.
     #[arg(long, default_value_t = 0)]
