@@ -797,7 +797,9 @@ mod tests {
                     *c = i as u32;
                 }
                 match format {
-                    PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::VhltFixed => lc.truncate(clusters as usize),
+                    PrtFormat::Prt1 | PrtFormat::Q3map2 | PrtFormat::VhltFixed => {
+                        lc.truncate(clusters as usize)
+                    }
                     // A VHLT portal leaf holds consecutive leaves.
                     PrtFormat::Vhlt => lc.sort_unstable(),
                     // The writer lists PRT2 leaves cluster by cluster, so the reader's order is the
