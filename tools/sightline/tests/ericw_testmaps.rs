@@ -2,7 +2,8 @@
 //! `sightline` binary called the way ericw-tools' build scripts call `vis` (a base name,
 //! single-dash flags), then held to the point assertions of ericw-tools' `tests/test_vis.cc`
 //! (transcribed into `assertions.json` beside the maps): which point sees which, leaf contents,
-//! ambient sound levels. On top of those, our own stricter check: ray validation finds no pair
+//! ambient sound levels (Quake 2 leaf contents are qbsp's, which vis leaves byte for byte, so only
+//! the Quake 1 ones are checked here). On top of those, our own stricter check: ray validation finds no pair
 //! the written PVS misses, on every map whose source has no `func_illusionary_visblocker` (a
 //! brush the mapper asks vis to treat as opaque although sight passes through it: qbsp writes no
 //! portals there, so rays find, by design, pairs that the PVS leaves out).
@@ -12,6 +13,7 @@ use std::process::Command;
 
 use serde_json::Value;
 use sightline_formats::bsp::{self, Bsp};
+use sightline_runtime::{Bitset, World, load};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sightline"))
@@ -109,6 +111,28 @@ fn check_q1(spec: &Value, codes: &Value, b: &Bsp) -> Vec<String> {
     failed
 }
 
+/// Quake 2 "sees": the bit of `to`'s cluster in the PVS row of `from`'s cluster.
+fn q2_sees(world: &World, from: [f64; 3], to: [f64; 3]) -> Option<bool> {
+    let at = |p: [f64; 3]| world.leaf_cluster(world.leaf_at(p.map(|c| c as f32)));
+    let (a, b) = (at(from)?, at(to)?);
+    let mut row = Bitset::new(0);
+    world.decode_pvs(a, &mut row);
+    Some(row.get(b as usize))
+}
+
+/// The "sees" assertions of one Quake 2 map, through the runtime; returns the failures.
+fn check_q2(spec: &Value, world: &World) -> Vec<String> {
+    let mut failed = Vec::new();
+    for s in spec["sees"].as_array().into_iter().flatten() {
+        let (from, to) = (s["from"].as_str().expect("from"), s["to"].as_str().expect("to"));
+        let got = q2_sees(world, point(&spec["points"][from]), point(&spec["points"][to]));
+        if got != s["expect"].as_bool() {
+            failed.push(format!("{from} sees {to} = {got:?}"));
+        }
+    }
+    failed
+}
+
 #[test]
 fn ericw_vis_test_assertions_hold_with_our_vis_and_rays_find_no_miss() {
     let Some(maps) = testmaps() else { return };
@@ -116,9 +140,11 @@ fn ericw_vis_test_assertions_hold_with_our_vis_and_rays_find_no_miss() {
         serde_json::from_slice(&std::fs::read(maps.join("assertions.json")).expect("read")).expect("JSON");
     let (mut checked, mut validated) = (0, 0);
     for (name, m) in spec["maps"].as_object().expect("maps") {
-        if m["game"] != "quake" {
-            continue;
-        }
+        let quake2 = match m["game"].as_str() {
+            Some("quake") => false,
+            Some("quake2") => true,
+            other => panic!("{name}: unknown game {other:?}"),
+        };
         // The ambient test needs texture names; the stand-in compile has them (see the README).
         let standin = format!("{name}.standin");
         let stem = if m.get("ambient").is_some() && maps.join(format!("{standin}.bsp")).is_file() {
@@ -130,8 +156,12 @@ fn ericw_vis_test_assertions_hold_with_our_vis_and_rays_find_no_miss() {
         copy_map(&maps, &dir, stem);
         vis_like_ericw(&dir, stem);
         let bsp_path = dir.join(format!("{stem}.bsp"));
-        let b = bsp::read(&std::fs::read(&bsp_path).expect("read vised .bsp")).expect("vised .bsp reads");
-        let failed = check_q1(m, &spec["contents_codes"]["q1"], &b);
+        let bytes = std::fs::read(&bsp_path).expect("read vised .bsp");
+        let failed = if quake2 {
+            check_q2(m, &load::load_bsp(&bytes).expect("vised Quake 2 .bsp loads"))
+        } else {
+            check_q1(m, &spec["contents_codes"]["q1"], &bsp::read(&bytes).expect("vised .bsp reads"))
+        };
         assert!(failed.is_empty(), "{stem} ({}): {failed:?}", m["test"]);
         let source = std::fs::read(maps.join(format!("{name}.map"))).unwrap_or_default();
         if source.windows(27).any(|w| w == b"func_illusionary_visblocker") {
