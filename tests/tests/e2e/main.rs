@@ -21,3 +21,4 @@ mod validate_reference;
 mod vis_prt;
 mod vis_q2;
 mod vis_real;
+mod vis_shapes;
