@@ -21,8 +21,17 @@
 //! visited from 4.0 M to 0.93 M.
 //!
 //! Seeds: clusters known visible from the source's cluster by a certified line
-//! ([`super::certify`]) count as seen from the start; the flow records new certified lines for
-//! later flows.
+//! ([`super::certify`]) count as seen from the start; the flow records the pairs of new certified
+//! lines ([`super::seeds`]) for later flows. A frame remembers how many of the chain's clusters
+//! already have all their pairs recorded, so a line certified one frame deeper records only the
+//! pairs of the clusters after those: along a straight corridor, a number of pairs growing with
+//! the depth rather than with its square.
+//!
+//! Depth: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep; there every portal still in
+//! the frame's `might` counts as seen, which can only keep more. A thread's frames, and the
+//! recursion's stack, are bounded by it whatever the input (a straight corridor of `n` leaves
+//! would otherwise hold `n` frames of `n`-portal rows, and visit `n²/2` chains from each end);
+//! on the shared real maps (id's and LibreQuake's, compiled by ericw-tools) no result changes.
 //!
 //! The result of a flow is the set of portals it might see that lead into a cluster it sees: a
 //! superset of the portals truly visible through the source, so later flows may narrow by it.
@@ -30,9 +39,13 @@
 use glam::DVec3;
 use sightline_formats::geom::Plane;
 
+use super::MAX_FLOW_DEPTH;
 use super::certify;
 use super::graph::Graph;
-use super::poly::{CLIP_EPSILON, Clip, Poly, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator};
+use super::poly::{
+    CAP, CLIP_EPSILON, Clip, Poly, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator,
+};
+use super::seeds::Seeds;
 use sightline_formats::bits;
 
 /// Normals whose dot product is at most `-1 + this` are opposite: a line that entered through one
@@ -65,6 +78,9 @@ struct Frame {
     seps_ready: bool,
     /// Tests 3 and 4 (narrowing `source`) are still to run.
     narrow: bool,
+    /// The first this many clusters of the chain (see [`Flow::certify`]) have every pair among
+    /// them recorded as seeds by this flow (or known before it).
+    paired: usize,
 }
 
 /// Per-thread flow state, reused from portal to portal (no allocation once frames exist).
@@ -82,9 +98,6 @@ pub struct Flow {
     pub chains: u64,
     /// Look for certified sight lines (for seeds).
     seeding: bool,
-    /// Seeds found by the last run: (cluster, cluster) pairs joined by a certified line (see
-    /// [`super::certify`]), the first seeing the second.
-    pub certified: Vec<(u32, u32)>,
 }
 
 impl Flow {
@@ -100,19 +113,21 @@ impl Flow {
             level,
             chains: 0,
             seeding,
-            certified: Vec::new(),
         }
+    }
+
+    /// An upper bound of the bytes a flow's state takes for rows of `words` words and
+    /// `clusters` clusters: its frames at the deepest, and its rows.
+    pub fn bytes(words: usize, clusters: usize) -> u128 {
+        let frame = std::mem::size_of::<Frame>() + 8 * words + 2 * CAP * std::mem::size_of::<Plane>();
+        (MAX_FLOW_DEPTH as u128 + 1) * frame as u128
+            + std::mem::size_of::<Self>() as u128
+            + 8 * (words + bits::words(clusters)) as u128
     }
 
     /// Cluster `c` is visible: every portal into it is covered.
     fn see(&mut self, g: &Graph, c: u32) {
-        if bits::get(&self.seen, c as usize) {
-            return;
-        }
-        bits::set(&mut self.seen, c as usize);
-        for &q in &g.cluster_incoming[c as usize] {
-            bits::set(&mut self.vis, q as usize);
-        }
+        see(&mut self.seen, &mut self.vis, g, c);
     }
 
     fn frame(&mut self, d: usize) {
@@ -124,19 +139,18 @@ impl Flow {
     /// The portals visible through portal `base`; `test` holds per portal its final vis when done,
     /// else its `mightsee` (`words` words per portal). Writes the result into `out`.
     ///
-    /// `seeds` holds clusters known visible from the cluster `base` leaves by a certified line:
-    /// they are marked seen from the start, so branches that could only find them are not
-    /// explored. The row stays a superset of what `base` sees (it may also hold portals into
-    /// clusters seen only through the cluster's other portals, which the cluster's row holds
-    /// anyway). The run leaves in [`Flow::certified`] the seeds it found.
-    pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &[u64], base: usize, out: &mut [u64]) {
+    /// The clusters `seeds` knows visible from the cluster `base` leaves are marked seen from
+    /// the start, so branches that could only find them are not explored. The row stays a
+    /// superset of what `base` sees (it may also hold portals into clusters seen only through the
+    /// cluster's other portals, which the cluster's row holds anyway). The seeds the run certifies
+    /// are recorded in `seeds`.
+    pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, base: usize, out: &mut [u64]) {
         self.vis.fill(0);
         self.seen.fill(0);
-        self.certified.clear();
-        for c in bits::ones(seeds) {
+        let p = &g.portals[base];
+        for c in bits::ones(seeds.row(p.owner as usize)) {
             self.see(g, c as u32);
         }
-        let p = &g.portals[base];
         self.see(g, p.leaf);
         self.see(g, p.owner);
         self.frame(0);
@@ -151,8 +165,9 @@ impl Flow {
         f.hi = f.might.iter().rposition(|&w| w != 0).map_or(0, |w| w + 1);
         f.seps_ready = false;
         f.narrow = false;
+        f.paired = 1;
         let head = Head { plane: p.plane, bound: Sphere { center: p.center, radius: p.radius } };
-        self.recurse(g, test, 0, &head);
+        self.recurse(g, test, seeds, 0, &head);
         // Portals it might see that lead into a cluster it sees: a superset of the portals it
         // sees, which is what later flows may narrow by.
         let might = &test[base * self.words..(base + 1) * self.words];
@@ -161,10 +176,9 @@ impl Flow {
         }
     }
 
-    fn recurse(&mut self, g: &Graph, test: &[u64], d: usize, head: &Head) {
+    fn recurse(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, d: usize, head: &Head) {
         self.chains += 1;
         let words = self.words;
-        self.frame(d + 1);
         let leaf = self.frames[d].leaf as usize;
         // Without a target worth testing (one still possibly visible that leads to an unseen
         // cluster or beyond which something unseen might lie) the branch ends here, before the
@@ -182,6 +196,18 @@ impl Flow {
         if !worth {
             return;
         }
+        if d == MAX_FLOW_DEPTH {
+            // Too deep to follow: whatever the branch might still reach counts as seen.
+            let Self { frames, seen, vis, .. } = self;
+            let f = &frames[d];
+            for w in f.lo..f.hi {
+                for q in bits::word_ones(w, f.might[w]) {
+                    see(seen, vis, g, g.portals[q].leaf);
+                }
+            }
+            return;
+        }
+        self.frame(d + 1);
         if d > 0 && self.level > 0 && !self.cull_beyond_beam(g, d, head) {
             return;
         }
@@ -242,6 +268,7 @@ impl Flow {
             next.plane = Some(p.plane);
             next.seps_ready = false;
             next.narrow = false;
+            next.paired = prev.paired;
             if d > 0 {
                 // Target: in front of the pass portal.
                 if next.pass.clip_in(&target, &prev_plane, CLIP_EPSILON, tmp) == Clip::Gone {
@@ -257,11 +284,11 @@ impl Flow {
             if !bits::get(&self.seen, p.leaf as usize) {
                 self.see(g, p.leaf);
                 if self.seeding {
-                    self.certify(g, d + 1);
+                    self.certify(g, seeds, d + 1);
                 }
             }
             if deeper {
-                self.recurse(g, test, d + 1, head);
+                self.recurse(g, test, seeds, d + 1, head);
             }
         }
     }
@@ -270,9 +297,11 @@ impl Flow {
 impl Flow {
     /// Frame `k` was just reached through a new cluster: if the line from the middle of its
     /// clipped source to the middle of its clipped target crosses every original winding of the
-    /// chain (frames `1..k`), record seeds: every two clusters the line runs through (from the
-    /// base portal's owner to the cluster reached) see each other.
-    fn certify(&mut self, g: &Graph, k: usize) {
+    /// chain (frames `1..k`), record seeds: every two clusters the line runs through see each
+    /// other. Those are the chain's clusters: the base portal's owner, then the cluster each
+    /// frame `0..=k` reached. Pairs among the first [`Frame::paired`] of them are already
+    /// recorded; the frame's chain is then fully paired.
+    fn certify(&mut self, g: &Graph, seeds: &Seeds, k: usize) {
         let chain = &self.frames[..=k];
         let base = &g.portals[chain[0].portal as usize];
         let target = &g.portals[chain[k].portal as usize];
@@ -297,16 +326,16 @@ impl Flow {
         if !ok {
             return;
         }
-        for (i, f) in chain.iter().enumerate() {
-            let ci = g.portals[f.portal as usize].owner;
-            for h in &chain[i + 1..] {
-                let cj = g.portals[h.portal as usize].owner;
-                self.certified.push((ci, cj));
-                self.certified.push((cj, ci));
+        let cluster = |i: usize| if i == 0 { base.owner } else { chain[i - 1].leaf };
+        for j in chain[k].paired..k + 2 {
+            let cj = cluster(j);
+            for i in 0..j {
+                let ci = cluster(i);
+                seeds.record(ci, cj);
+                seeds.record(cj, ci);
             }
-            self.certified.push((ci, target.leaf));
-            self.certified.push((target.leaf, ci));
         }
+        self.frames[k].paired = k + 2;
     }
 
     /// Drop from frame `d`'s `might` every portal not yet covered that lies wholly behind (or at
@@ -347,6 +376,17 @@ impl Flow {
             }
         }
         true
+    }
+}
+
+/// Cluster `c` is visible: marked in `seen`, and every portal into it covered in `vis`.
+fn see(seen: &mut [u64], vis: &mut [u64], g: &Graph, c: u32) {
+    if bits::get(seen, c as usize) {
+        return;
+    }
+    bits::set(seen, c as usize);
+    for &q in &g.cluster_incoming[c as usize] {
+        bits::set(vis, q as usize);
     }
 }
 
@@ -419,4 +459,53 @@ fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, tmp
         return false;
     }
     level < 4 || clip_to_separators(&prev.pass, &cur.pass, true, convex, &mut cur.source, &head.bound, tmp)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use sightline_formats::geom::Winding;
+    use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
+
+    use super::*;
+    use crate::vis::base;
+
+    /// A straight corridor of `n` leaves along +x; line `i` joins leaves `i` and `i + 1`, so
+    /// one-way portal `2i` leads forward from leaf `i`.
+    fn corridor(n: u32) -> PortalFile {
+        let portals = (0..n - 1)
+            .map(|i| {
+                let x = 64.0 * f64::from(i + 1);
+                let pts =
+                    [(0.0, 0.0), (64.0, 0.0), (64.0, 64.0), (0.0, 64.0)].map(|(y, z)| DVec3::new(x, y, z));
+                PrtPortal { leaves: [i, i + 1], winding: Winding::new(pts.to_vec()) }
+            })
+            .collect();
+        PortalFile {
+            format: PrtFormat::Prt1,
+            num_leaves: n,
+            num_clusters: n,
+            portals,
+            leaf_clusters: (0..n).collect(),
+        }
+    }
+
+    #[test]
+    fn a_chain_longer_than_max_depth_stops_there_keeping_everything_it_might_see() {
+        let n = 3 * MAX_FLOW_DEPTH as u32;
+        let g = Graph::new(&corridor(n));
+        let words = bits::words(g.portals.len());
+        let might = base::mightsee(&g, words, &|| {});
+        let seeds = Seeds::new(g.num_clusters());
+        for seeding in [false, true] {
+            let mut flow = Flow::new(words, g.num_clusters(), 4, seeding);
+            let mut out = vec![0u64; words];
+            flow.run(&g, &might, &seeds, 0, &mut out);
+            // Every portal ahead is visible, though the flow stopped at MAX_FLOW_DEPTH frames.
+            assert_eq!(out, might[..words], "seeding {seeding}");
+            assert_eq!(bits::count(&out), u64::from(n - 2));
+            assert_eq!(flow.frames.len(), MAX_FLOW_DEPTH + 1);
+            assert_eq!(flow.chains, MAX_FLOW_DEPTH as u64 + 1);
+        }
+    }
 }

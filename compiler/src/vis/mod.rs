@@ -23,7 +23,11 @@
 //!   middles of its clipped source and target against the chain's windings (`certify`); when
 //!   it passes, the clusters on it see each other for sure, and later flows from those clusters
 //!   start with them marked seen (saved in checkpoints with the rows). On E1M2 this cuts the
-//!   chains by a quarter.
+//!   chains by a quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a
+//!   list per chain (a corridor of 400 leaves once held 3 GB of such lists).
+//! - **Bounded depth**: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep and then
+//!   counts everything it might still see as seen, so a thread's working set is that many rows
+//!   whatever the input.
 //! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
 //!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
 //! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
@@ -47,6 +51,7 @@ pub mod farplane;
 mod flow;
 mod graph;
 mod poly;
+mod seeds;
 mod state;
 mod symmetry;
 
@@ -66,6 +71,12 @@ pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 
 /// Portals per deterministic flow batch (a portal sees the results of earlier batches only).
 pub const FLOW_BATCH: usize = 48;
+
+/// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
+/// portal it might still see counts as seen, which can only keep more: a thread holds at most this
+/// many frames (rows of portal bits) whatever the input. No result on the shared real maps comes
+/// near it (they are the same with a limit of 64 and without one).
+pub const MAX_FLOW_DEPTH: usize = 64;
 
 /// Options of [`run`].
 #[derive(Debug, Clone)]
@@ -330,15 +341,11 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
     Ok(())
 }
 
-/// Frames of flow recursion counted per thread by [`memory_estimate`] (each a row of `mightsee`
-/// words; deeper chains add a row each, small next to the portal matrices).
-const ESTIMATE_FRAMES: u128 = 64;
-
 /// An upper estimate of the bytes [`run`] allocates for `prt` with `opts`, computed from the
 /// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows, their copy in a
-/// checkpoint log), the cluster × cluster matrices (certified seeds, cluster rows, their
-/// snapshot and the `mightsee` rows for statistics), per-thread rows and flow frames, and the
-/// portal graph.
+/// checkpoint log), the cluster × cluster matrices (certified seeds and the batch's pending ones,
+/// cluster rows, their snapshot and the `mightsee` rows for statistics), per-thread rows and
+/// flow frames (at most [`MAX_FLOW_DEPTH`] deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     let threads = match opts.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -353,15 +360,21 @@ pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
     let mut matrices = 2 * one_way * row;
     if !opts.fast {
-        // The certified seeds, and the checkpoint log (at most one row per portal).
-        matrices += nc * cluster_row;
+        // The certified seeds (known and pending), and the checkpoint log (at most one row per
+        // portal).
+        matrices += 2 * nc * cluster_row;
         if opts.state.is_some() {
             matrices += one_way * row;
         }
     }
     // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
     let clusters = 3 * nc * cluster_row + u128::from(prt.num_leaves) * 8 + nc * 24;
-    let per_thread = row * (3 + ESTIMATE_FRAMES) + cluster_row;
+    // Base vis's `tested` row and flood stack (a cluster per portal at most), the cluster rows'
+    // portal row; with the flow, its state and the row it fills.
+    let mut per_thread = 2 * row + 4 * one_way;
+    if !opts.fast {
+        per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
+    }
     let slots = FLOW_BATCH as u128 * row;
     let total = graph + matrices + clusters + threads * per_thread + slots;
     u64::try_from(total).unwrap_or(u64::MAX)
@@ -468,7 +481,7 @@ fn flow_all(
     let mut test = might.to_vec();
     symmetry::tighten_all(&mut test, words, n);
     let nc = g.num_clusters();
-    let mut seeds = vec![0u64; nc * bits::words(nc)];
+    let mut seeds = seeds::Seeds::new(nc);
     let mut done = 0usize;
     // With a state file, the log of every batch boundary: loaded and replayed when the file
     // exists (the rows and seeds the uninterrupted run had after those batches), then extended.
@@ -484,7 +497,7 @@ fn flow_all(
         };
         log = Some(match state::load(path, &want)? {
             Some(st) => {
-                st.replay(&order, &mut test, &mut seeds).map_err(|e| state::inconsistent(path, &e))?;
+                st.replay(&order, &mut test, seeds.known_mut()).map_err(|e| state::inconsistent(path, &e))?;
                 done = st.done as usize;
                 stats.chains = st.total_chains();
                 stats.resumed_portals = done;
@@ -506,9 +519,8 @@ fn flow_all(
 struct Rows {
     /// Per portal its final row once its batch is folded, else its `mightsee`.
     test: Vec<u64>,
-    /// Per cluster, the clusters known visible from it by a certified line ([`certify`]), in
-    /// words of the cluster count.
-    seeds: Vec<u64>,
+    /// Per cluster, the clusters known visible from it by a certified line ([`certify`]).
+    seeds: seeds::Seeds,
 }
 
 /// What the flow workers share for one run of [`flow_all`].
@@ -540,7 +552,6 @@ struct Cursor {
 struct Slot {
     row: Vec<u64>,
     chains: u64,
-    certified: Vec<(u32, u32)>,
 }
 
 /// Bookkeeping done at batch boundaries by the worker that finishes a batch.
@@ -636,15 +647,12 @@ impl Run<'_> {
             }
             {
                 let rows = test.read().unwrap_or_else(PoisonError::into_inner);
-                let p = self.order[i];
-                let cw = bits::words(self.g.num_clusters());
-                let c = self.g.portals[p].owner as usize;
-                f.run(self.g, &rows.test, &rows.seeds[c * cw..(c + 1) * cw], p, &mut out);
+                f.run(self.g, &rows.test, &rows.seeds, self.order[i], &mut out);
             }
             let batch_start = start + (i - start) / FLOW_BATCH * FLOW_BATCH;
             let batch_end = (batch_start + FLOW_BATCH).min(self.n);
             *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
-                Slot { row: out, chains: f.chains, certified: std::mem::take(&mut f.certified) };
+                Slot { row: out, chains: f.chains };
             let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
             (self.progress)(VisProgress { phase: VisPhase::Flow, done: d, total: self.n });
             if cursor.finished.fetch_add(1, Ordering::AcqRel) + 1 == batch_end - batch_start {
@@ -667,24 +675,22 @@ impl Run<'_> {
         let mut guard = boundary.lock().unwrap_or_else(PoisonError::into_inner);
         let b = &mut *guard;
         let mut rows = test.write().unwrap_or_else(PoisonError::into_inner);
-        let cw = bits::words(self.g.num_clusters());
         let Rows { test: rows, seeds } = &mut *rows;
+        // The batch's seed pairs, new at this boundary; the log gives them to its last portal.
         let mut added = Vec::new();
+        match b.log {
+            Some(_) => seeds.fold(|from, to| added.push((from, to))),
+            None => seeds.fold(|_, _| {}),
+        }
         for (pos, &p) in self.order[batch_start..batch_end].iter().enumerate() {
             let slot = slots[pos].lock().unwrap_or_else(PoisonError::into_inner);
             symmetry::replace_row(rows, words, p, &slot.row);
-            for &(from, to) in &slot.certified {
-                let seed_row = &mut seeds[from as usize * cw..(from as usize + 1) * cw];
-                if !bits::get(seed_row, to as usize) {
-                    bits::set(seed_row, to as usize);
-                    added.push((from, to));
-                }
-            }
             b.stats.chains += slot.chains;
             // The log replays exactly this: the row as folded, and the pairs that were new.
-            match &mut b.log {
-                Some(log) => log.push(&rows[p * words..(p + 1) * words], slot.chains, added.drain(..)),
-                None => added.clear(),
+            if let Some(log) = &mut b.log {
+                let pairs =
+                    if pos + 1 == batch_end - batch_start { std::mem::take(&mut added) } else { Vec::new() };
+                log.push(&rows[p * words..(p + 1) * words], slot.chains, pairs);
             }
         }
         let done = batch_end;

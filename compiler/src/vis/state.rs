@@ -7,13 +7,14 @@
 //!
 //! What is stored is the *log* of the batch boundaries, not a snapshot of the matrices: for each
 //! finished portal (in processing order) its row as it was folded into the matrix, the chains its
-//! flow visited and the seed pairs ([`super::certify`]) it added. A resume replays that log from
-//! the `mightsee` rows exactly as the batch boundaries did ([`State::replay`]), so the rows and
-//! the seeds a resumed run starts from are exactly those of the uninterrupted run after the same
-//! batches, and any prefix of whole batches is itself a valid state. (A snapshot cannot be cut
-//! back: its early rows were tightened, and its seeds added, by portals after the cut.) `done`
-//! must be a whole number of batches: the resumed run batches the rest from there, so any other
-//! count would batch it differently from the uninterrupted run (on dm1, 30 pairs fewer).
+//! flow visited and, on a batch's last portal, the seed pairs ([`super::seeds`]) the batch added.
+//! A resume replays that log from the `mightsee` rows exactly as the batch boundaries did
+//! ([`State::replay`]), so the rows and the seeds a resumed run starts from are exactly those of
+//! the uninterrupted run after the same batches, and any prefix of whole batches is itself a
+//! valid state. (A snapshot cannot be cut back: its early rows were tightened, and its seeds
+//! added, by portals after the cut.) `done` must be a whole number of batches: the resumed run
+//! batches the rest from there, so any other count would batch it differently from the
+//! uninterrupted run (on dm1, 30 pairs fewer).
 //!
 //! Nothing in a state is trusted: the checksum catches damage, the header must match the portal
 //! file (a hash of it as [`sightline_formats::prt::write`] prints it, and of the options that
@@ -58,9 +59,11 @@ pub struct State {
     pub rows: Vec<u64>,
     /// Per finished portal, the portal chains its flow visited.
     pub chains: Vec<u64>,
-    /// Per finished portal, how many of `pairs` it added.
+    /// Per finished portal, how many of `pairs` it added: a batch sets its pairs together at its
+    /// boundary, and the log gives them to the batch's last portal (the others add none).
     pub added: Vec<u32>,
-    /// Seed pairs `(from, to)` in the order the boundaries set them, each new when set.
+    /// Seed pairs `(from, to)` in the order the boundaries set them (per batch, in `(from, to)`
+    /// order), each new when set.
     pub pairs: Vec<[u32; 2]>,
 }
 

@@ -25,3 +25,4 @@ mod vis_prt;
 mod vis_q2;
 mod vis_q3;
 mod vis_real;
+mod vis_shapes;

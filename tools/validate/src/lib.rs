@@ -20,7 +20,8 @@
 //! # Pictures and maps
 //! [`render`] draws first-person views (pixels outside the eye's PVS in red), plans with PVS,
 //! frustum, portals and leak paths, and PVS matrices, as PNG. [`mapgen`] writes sealed `.map`
-//! files of any size for tests and benchmarks.
+//! files of any size for tests and benchmarks; [`shapes`] the inputs that cost vis the most for
+//! their size (a long corridor, a many-sided pillar, many tiny brushes).
 //!
 //! # Independence
 //! Nothing here calls the vis code it validates (this crate does not depend on the compiler): the
@@ -38,6 +39,7 @@ pub mod render;
 pub mod report;
 pub mod rng;
 pub mod sample;
+pub mod shapes;
 
 pub use sightline_formats::progress::{NoProgress, Progress};
 

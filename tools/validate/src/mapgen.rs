@@ -61,7 +61,7 @@ pub struct IBox {
 }
 
 impl IBox {
-    fn new(lo: [i64; 3], hi: [i64; 3]) -> Self {
+    pub(crate) fn new(lo: [i64; 3], hi: [i64; 3]) -> Self {
         Self { lo, hi }
     }
 
@@ -93,7 +93,7 @@ impl IBox {
     }
 
     /// The six slabs covering the `t`-thick neighbourhood of `self`.
-    fn shell(&self, t: i64) -> [IBox; 6] {
+    pub(crate) fn shell(&self, t: i64) -> [IBox; 6] {
         let ([x0, y0, z0], [x1, y1, z1]) = (self.lo, self.hi);
         [
             IBox::new([x0 - t, y0 - t, z0 - t], [x1 + t, y1 + t, z0]),
@@ -294,7 +294,7 @@ fn carve(airs: &[IBox]) -> Vec<IBox> {
 }
 
 /// One box brush; each side's points give a plane facing out of the box.
-fn write_box(out: &mut String, b: &IBox, texture: &str) {
+pub(crate) fn write_box(out: &mut String, b: &IBox, texture: &str) {
     let ([x0, y0, z0], [x1, y1, z1]) = (b.lo, b.hi);
     let sides = [
         [[x0, y0, z0], [x0, y1, z0], [x0, y0, z1]],
