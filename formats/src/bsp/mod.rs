@@ -123,6 +123,15 @@ impl BspVersion {
         }
     }
 
+    /// Bytes of one node record.
+    pub fn node_bytes(self) -> usize {
+        match self {
+            Self::Bsp29 => 24,
+            Self::Bsp2 => 44,
+            Self::Bsp2Rmq => 32,
+        }
+    }
+
     /// Bytes of one leaf record.
     pub fn leaf_bytes(self) -> usize {
         match self {

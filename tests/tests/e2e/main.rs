@@ -11,6 +11,7 @@ mod info_cli;
 mod map_parse;
 mod mapgen;
 mod render_pixels;
+mod revis;
 mod runtime_bench;
 mod runtime_compiled;
 mod runtime_ffi;

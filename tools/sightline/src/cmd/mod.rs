@@ -4,6 +4,8 @@ pub mod bench;
 pub mod compile;
 pub mod gvs;
 pub mod info;
+pub mod portals;
 pub mod render;
 pub mod validate;
 pub mod vis;
+pub mod vis_external;
