@@ -1,5 +1,6 @@
-//! Re-vising compiled maps without their source: portals rebuilt from a real BSP's tree give a PVS
-//! as tight as the compiler's own `.prt` (within 5 % more pairs), the same for any thread count;
+//! Re-vising compiled maps without their source: portals rebuilt from a real BSP's tree are the
+//! compiler's own (as many as its PRT1) and give a PVS as tight as its `.prt` (within 5 % more
+//! pairs), the same for any thread count;
 //! see-through water sees strictly more than opaque water; and an external `.vis` record made for
 //! a map decodes to the PVS computed. (The real binary, with ray validation, is exercised in
 //! `tools/sightline/tests/cli.rs`.)
@@ -30,7 +31,7 @@ fn rows_and_pairs(r: &VisResult) -> (Vec<u8>, u64) {
 
 #[test]
 fn rebuilt_portals_are_as_tight_as_the_compilers_and_deterministic() {
-    for name in ["dm1", "lqdm1"] {
+    for name in ["dm1", "dm2_nodetail"] {
         let (Some(bsp_path), Some(prt_path)) = (
             sightline_tests::shared_map(&format!("ericw/{name}.bsp")),
             sightline_tests::shared_map(&format!("ericw/{name}.prt")),
@@ -41,13 +42,11 @@ fn rebuilt_portals_are_as_tight_as_the_compilers_and_deterministic() {
         let reference = prt::read_bytes(&std::fs::read(&prt_path).expect("read .prt"), name).expect(".prt");
         assert_eq!(input.prt.num_leaves, reference.num_leaves, "{name}: the BSP's own vis leaves");
         assert_eq!(stats.portals, input.prt.portals.len());
-        let ratio = input.prt.portals.len() as f64 / reference.portals.len() as f64;
-        assert!(
-            (0.9..1.1).contains(&ratio),
-            "{name}: {} portals against {}",
-            input.prt.portals.len(),
-            reference.portals.len()
-        );
+        // Without detail, qbsp's PRT1 holds the portals of the very tree the BSP stores: the
+        // rebuild finds each of them. (With detail its PRT2 joins clusters, not leaves.)
+        if reference.format == prt::PrtFormat::Prt1 {
+            assert_eq!(input.prt.portals.len(), reference.portals.len(), "{name}: portals");
+        }
         let (rows1, pairs) = rows_and_pairs(&run(&input.prt, 1));
         let (rows2, _) = rows_and_pairs(&run(&input.prt, 2));
         assert_eq!(rows1, rows2, "{name}: rows differ between 1 and 2 threads");
