@@ -39,8 +39,7 @@ use sightline_formats::visfile::{self, VisFileError};
 use sightline_formats::vispatch::{VisPatchError, VisPatchRecord};
 use thiserror::Error;
 
-use crate::bsp_portals::{self, BspPortalStats, BspPortalsError};
-use crate::contents::LiquidSight;
+use crate::bsp_portals::{self, BspPortalOptions, BspPortalStats, BspPortalsError};
 use crate::vis::VisResult;
 
 /// Why vis input could not be read or its rows not be stored.
@@ -222,10 +221,13 @@ impl VisInput {
     }
 
     /// Reads the `.bsp` at `path` alone and rebuilds its portals from its world tree
-    /// ([`bsp_portals::build`], liquids as `liquids` says); a portal file beside it is not read.
-    pub fn from_bsp_tree(path: &Path, liquids: LiquidSight) -> Result<(Self, BspPortalStats), VisdataError> {
+    /// ([`bsp_portals::build`] with `opts`); a portal file beside it is not read.
+    pub fn from_bsp_tree(
+        path: &Path,
+        opts: BspPortalOptions,
+    ) -> Result<(Self, BspPortalStats), VisdataError> {
         let input = BspInput::read(path)?;
-        let built = bsp_portals::build(&input.bsp, liquids)
+        let built = bsp_portals::build(&input.bsp, opts)
             .map_err(|source| VisdataError::Portals { path: path.into(), source })?;
         Ok((Self { prt_path: path.into(), prt: built.prt, bsp: Some(input) }, built.stats))
     }

@@ -5,7 +5,7 @@
 //! a map decodes to the PVS computed. (The real binary, with ray validation, is exercised in
 //! `tools/sightline/tests/cli.rs`.)
 
-use sightline_compiler::bsp_portals;
+use sightline_compiler::bsp_portals::{self, BspPortalOptions};
 use sightline_compiler::contents::LiquidSight;
 use sightline_compiler::vis::{self, VisOptions, VisResult};
 use sightline_compiler::visdata::{self, AmbientOptions, Rows, VisInput};
@@ -38,7 +38,8 @@ fn rebuilt_portals_are_as_tight_as_the_compilers_and_deterministic() {
         ) else {
             return;
         };
-        let (input, stats) = VisInput::from_bsp_tree(&bsp_path, LiquidSight::Transparent).expect("rebuild");
+        let (input, stats) =
+            VisInput::from_bsp_tree(&bsp_path, BspPortalOptions::default()).expect("rebuild");
         let reference = prt::read_bytes(&std::fs::read(&prt_path).expect("read .prt"), name).expect(".prt");
         assert_eq!(input.prt.num_leaves, reference.num_leaves, "{name}: the BSP's own vis leaves");
         assert_eq!(stats.portals, input.prt.portals.len());
@@ -63,7 +64,11 @@ fn rebuilt_portals_are_as_tight_as_the_compilers_and_deterministic() {
 fn see_through_water_sees_strictly_more_than_opaque_water() {
     let Some(path) = sightline_tests::shared_map("ericw/dm1.bsp") else { return };
     let pairs = |water| {
-        let (input, stats) = VisInput::from_bsp_tree(&path, water).expect("rebuild");
+        let (input, stats) = VisInput::from_bsp_tree(
+            &path,
+            BspPortalOptions { liquids: water, ..BspPortalOptions::default() },
+        )
+        .expect("rebuild");
         (rows_and_pairs(&run(&input.prt, 2)).1, stats)
     };
     let (clear, clear_stats) = pairs(LiquidSight::Transparent);
@@ -78,7 +83,7 @@ fn see_through_water_sees_strictly_more_than_opaque_water() {
 #[test]
 fn an_external_vis_record_decodes_to_the_pvs_computed() {
     let Some(path) = sightline_tests::shared_map("ericw/dm1.bsp") else { return };
-    let (input, _) = VisInput::from_bsp_tree(&path, LiquidSight::Transparent).expect("rebuild");
+    let (input, _) = VisInput::from_bsp_tree(&path, BspPortalOptions::default()).expect("rebuild");
     let b = input.bsp.as_ref().expect("a .bsp input");
     let result = run(&input.prt, 2);
     let rows = Rows::new(&result);
@@ -114,7 +119,7 @@ fn every_rebuilt_portal_joins_open_vis_leaves_of_its_map() {
     for dir in ["ericw", "id_bsp_orig"] {
         let Some(path) = sightline_tests::shared_map(&format!("{dir}/e1m1.bsp")) else { return };
         let file = bsp::read(&std::fs::read(&path).expect("read")).expect("bsp");
-        let built = bsp_portals::build(&file, LiquidSight::Transparent).expect("rebuild");
+        let built = bsp_portals::build(&file, BspPortalOptions::default()).expect("rebuild");
         assert_eq!(built.prt.num_leaves as usize, file.visleafs());
         for p in &built.prt.portals {
             let contents = p.leaves.map(|l| file.leaves[l as usize + 1].contents);
@@ -132,4 +137,33 @@ fn every_rebuilt_portal_joins_open_vis_leaves_of_its_map() {
             file.leaves[1..=file.visleafs()].iter().filter(|l| l.contents != -2).count()
         );
     }
+}
+
+#[test]
+fn a_vised_bsp_keeps_its_detail_clusters() {
+    // lqdm1 was compiled with detail: ericw-tools' PRT2 has 253 clusters, and its vis gave every
+    // leaf of a cluster one row. Rebuilt from the vised file, the clusters come back, so vis runs
+    // on as many cells as from the `.prt`, and the PVS stays within 5 % of ericw-tools' pairs.
+    let (Some(vised), Some(prt_path)) =
+        (sightline_tests::shared_map("ericw/lqdm1.vis.bsp"), sightline_tests::shared_map("ericw/lqdm1.prt"))
+    else {
+        return;
+    };
+    let (input, stats) = VisInput::from_bsp_tree(&vised, BspPortalOptions::default()).expect("rebuild");
+    let reference =
+        prt::read_bytes(&std::fs::read(&prt_path).expect("read .prt"), "lqdm1.prt").expect(".prt");
+    assert_eq!(input.prt.format, prt::PrtFormat::Prt2);
+    assert_eq!(stats.clusters, reference.num_clusters as usize);
+    let (_, pairs) = rows_and_pairs(&run(&input.prt, 2));
+    let (_, reference_pairs) = rows_and_pairs(&run(&reference, 2));
+    eprintln!("lqdm1: {pairs} pairs from the vised tree's clusters, {reference_pairs} from the .prt");
+    assert!(pairs as f64 <= reference_pairs as f64 * 1.05, "{pairs} against {reference_pairs}");
+    // Every leaf on its own: more cells, fewer pairs.
+    let (leaves, leaf_stats) = VisInput::from_bsp_tree(
+        &vised,
+        BspPortalOptions { no_clusters: true, ..BspPortalOptions::default() },
+    )
+    .expect("rebuild");
+    assert_eq!(leaf_stats.clusters, leaf_stats.vis_leaves);
+    assert_eq!(leaves.prt.format, prt::PrtFormat::Prt1);
 }

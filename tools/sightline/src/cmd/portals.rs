@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use sightline_compiler::bsp_portals::{self, BspPortalStats};
+use sightline_compiler::bsp_portals::{self, BspPortalOptions, BspPortalStats};
 use sightline_compiler::contents::LiquidSight;
 use sightline_formats::bsp;
 
@@ -24,6 +24,10 @@ pub struct Args {
     /// Whether water, slime and lava let sight through.
     #[arg(long, value_enum, default_value_t)]
     pub water: Water,
+    /// Give every leaf its own cluster, even where the file's own PVS gives all open leaves under
+    /// a node one row (qbsp's detail clusters): tighter, slower to vis on maps with detail.
+    #[arg(long)]
+    pub no_clusters: bool,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -58,6 +62,8 @@ pub struct Report {
     pub output: String,
     /// `--water`.
     pub water: Water,
+    /// `PRT1`, or `PRT2` when leaves were kept together as clusters.
+    pub format: String,
     /// Counts of the rebuild.
     pub portals: BspPortalStats,
     /// Seconds rebuilding the portals (reading and writing excluded).
@@ -73,7 +79,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let file = bsp::read(&bytes).with_context(|| format!("{}: invalid BSP", path.display()))?;
     let t1 = Instant::now();
-    let built = bsp_portals::build(&file, args.water.into())
+    let opts = BspPortalOptions { liquids: args.water.into(), no_clusters: args.no_clusters };
+    let built = bsp_portals::build(&file, opts)
         .with_context(|| format!("{}: cannot rebuild portals from its tree", path.display()))?;
     let build_seconds = t1.elapsed().as_secs_f64();
     let output = args.output.clone().unwrap_or_else(|| path.with_extension("prt"));
@@ -86,6 +93,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         input: path.display().to_string(),
         output: output.display().to_string(),
         water: args.water,
+        format: built.prt.format.header().to_string(),
         portals: built.stats,
         build_seconds,
         total_seconds: t0.elapsed().as_secs_f64(),
@@ -101,8 +109,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 /// The summary line of a rebuild, shared with `vis --portals-from-bsp`.
 pub fn stats_line(s: &BspPortalStats) -> String {
     let mut line = format!(
-        "portals rebuilt from the BSP tree: {} portals, {} vis leaves ({} open leaves in a tree of {} nodes)",
-        s.portals, s.vis_leaves, s.open_leaves, s.nodes
+        "portals rebuilt from the BSP tree: {} portals, {} vis leaves, {} clusters ({} open leaves in a tree of {} nodes)",
+        s.portals, s.vis_leaves, s.clusters, s.open_leaves, s.nodes
     );
     if s.liquid_portals_dropped > 0 {
         line += &format!("; {} liquid portals left out (opaque water)", s.liquid_portals_dropped);
@@ -115,9 +123,10 @@ pub fn stats_line(s: &BspPortalStats) -> String {
 
 fn text_report(r: &Report) -> String {
     format!(
-        "{}: {}PRT1 -> {}\ntime: portals {:.3} s, total {:.3} s\n",
+        "{}: {}{} -> {}\ntime: portals {:.3} s, total {:.3} s\n",
         r.input,
         stats_line(&r.portals),
+        r.format,
         r.output,
         r.build_seconds,
         r.total_seconds

@@ -101,6 +101,10 @@ pub struct Args {
     /// transparent].
     #[arg(long, value_enum)]
     pub water: Option<crate::cmd::portals::Water>,
+    /// With --portals-from-bsp: give every leaf its own cluster, even where the file's own PVS
+    /// gives all open leaves under a node one row (qbsp's detail clusters): tighter, slower.
+    #[arg(long)]
+    pub no_clusters: bool,
     /// Write the PVS into an external `.vis` file (as Quakespasm, vkQuake, QSS and Mark V load
     /// beside a BSP29 map) and leave the `.bsp` as it is. Given a folder, one pack of every `.bsp`
     /// in it (needs -o).

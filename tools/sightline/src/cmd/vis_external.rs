@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use sightline_compiler::bsp_portals::BspPortalStats;
+use sightline_compiler::bsp_portals::{BspPortalOptions, BspPortalStats};
 use sightline_compiler::vis::{self, VisOptions, VisResult};
 use sightline_compiler::visdata::{self, AmbientOptions, BspInput, Rows, VisInput};
 use sightline_formats::bsp::BspVersion;
@@ -31,9 +31,9 @@ use crate::cmd::vis::Args;
 /// Refuses flag combinations that make no sense for `path` (a Quake 2 `.bsp` when `q2`).
 pub(crate) fn check_flags(args: &Args, path: &Path, q2: bool) -> anyhow::Result<()> {
     let p = path.display();
-    if args.water.is_some() && !args.portals_from_bsp {
+    if (args.water.is_some() || args.no_clusters) && !args.portals_from_bsp {
         bail!(
-            "{p}: --water needs --portals-from-bsp (a portal file has already decided which portals exist)"
+            "{p}: --water and --no-clusters need --portals-from-bsp (a portal file has already decided which portals exist)"
         );
     }
     if args.output.is_some() && !args.external_vis {
@@ -76,7 +76,11 @@ pub(crate) fn read_input(args: &Args, path: &Path) -> anyhow::Result<(VisInput, 
         map_name(path)?;
     }
     let (input, stats) = if args.portals_from_bsp {
-        let (input, stats) = VisInput::from_bsp_tree(path, args.water.unwrap_or_default().into())?;
+        let opts = BspPortalOptions {
+            liquids: args.water.unwrap_or_default().into(),
+            no_clusters: args.no_clusters,
+        };
+        let (input, stats) = VisInput::from_bsp_tree(path, opts)?;
         (input, Some(stats))
     } else {
         (VisInput::read(path)?, None)
