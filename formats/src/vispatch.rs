@@ -19,7 +19,7 @@
 //! lump as it is. Engines skip a non-matching record by `len + 36` bytes, stop at a record with
 //! `len <= 0`, and fall back to the BSP's own visdata when `vislen <= 0`; they load records for
 //! BSP29 maps only. [`read`] checks every length against the bytes that remain and every `visofs`
-//! against its visdata; [`write`] refuses what an engine could not find or use (a name of 32 bytes
+//! against its visdata; [`write()`] refuses what an engine could not find or use (a name of 32 bytes
 //! or more, two records of one name, empty visdata, leaves that are not 28-byte records).
 
 use crate::bits;
