@@ -372,7 +372,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let path = resolve_input(&args.input);
     let q2 = starts_like_q2(&path);
     vis_external::check_flags(args, &path, q2)?;
-    if path.is_dir() {
+    if args.external_vis && path.is_dir() {
         return vis_external::run_folder(args, &path);
     }
     if q2 {
