@@ -78,7 +78,28 @@ pub fn priority(c: Contents) -> u8 {
 /// them: neither is solid, and sky meets only sky (a sky surface hides what lies behind it, as
 /// Quake's tools write no portal into sky). Liquids are see-through, as ericw-tools' default.
 pub fn sight_passes(a: Contents, b: Contents) -> bool {
-    a != Contents::Solid && b != Contents::Solid && (a == Contents::Sky) == (b == Contents::Sky)
+    sight_passes_with(a, b, LiquidSight::Transparent)
+}
+
+/// Whether a liquid surface lets sight through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LiquidSight {
+    /// Water, slime and lava are see-through (ericw-tools' qbsp, `-transwater`).
+    #[default]
+    Transparent,
+    /// A liquid surface blocks sight: only leaves of equal contents are joined (id's qbsp).
+    Opaque,
+}
+
+/// As [`sight_passes`], with liquids see-through or not as `liquids` says: under
+/// [`LiquidSight::Opaque`] a portal joins only non-solid leaves of the same contents.
+pub fn sight_passes_with(a: Contents, b: Contents, liquids: LiquidSight) -> bool {
+    match liquids {
+        LiquidSight::Transparent => {
+            a != Contents::Solid && b != Contents::Solid && (a == Contents::Sky) == (b == Contents::Sky)
+        }
+        LiquidSight::Opaque => a == b && a != Contents::Solid,
+    }
 }
 
 /// True for contents that stop the outside flood (solid rock and sky, as Quake's qbsp).
@@ -127,6 +148,10 @@ mod tests {
         assert!(sight_passes(Contents::Sky, Contents::Sky));
         assert!(!sight_passes(Contents::Empty, Contents::Sky));
         assert!(!sight_passes(Contents::Lava, Contents::Solid));
+        let opaque = |a, b| sight_passes_with(a, b, LiquidSight::Opaque);
+        assert!(!opaque(Contents::Empty, Contents::Water) && !opaque(Contents::Water, Contents::Slime));
+        assert!(opaque(Contents::Water, Contents::Water) && opaque(Contents::Sky, Contents::Sky));
+        assert!(!opaque(Contents::Solid, Contents::Solid));
         assert_eq!(brush_kind(["CLIP", "clip"]), BrushKind::Clip);
         assert_eq!(brush_kind(["trigger"]), BrushKind::Trigger);
         assert_eq!(brush_kind(["hint", "skip"]), BrushKind::Hint);

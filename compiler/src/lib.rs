@@ -9,6 +9,7 @@
 
 pub mod brush;
 pub mod bsp;
+pub mod bsp_portals;
 pub mod contents;
 pub mod csg;
 pub mod emit;

@@ -7,7 +7,10 @@
 //! side. When the recursion ends, every portal joins two leaves (or a leaf and the outside).
 //!
 //! A portal's plane faces `nodes[0]`; its winding is clockwise seen from there. Windings are clipped
-//! and split with [`ON_EPSILON`]; a piece left with fewer than three distinct corners is dropped.
+//! and split with [`ON_EPSILON`]; a piece left with fewer than three distinct corners (after
+//! merging corners closer than [`ON_EPSILON`]) is dropped, as qbsp does, unless the caller asks
+//! [`build_with`] to keep tiny pieces ([`TinyPieces::Keep`]): then such a piece keeps its unmerged
+//! corners whenever they still span a plane, so no opening is lost for being small.
 
 use sightline_formats::geom::ON_EPSILON;
 use sightline_formats::{Aabb, Plane, PlaneSet, Winding};
@@ -38,8 +41,36 @@ pub struct Portals {
     pub outside: u32,
 }
 
-/// Portalize `tree`, whose volume is `bounds`.
+/// What happens to a piece of portal whose corners merge (within [`ON_EPSILON`]) to fewer than
+/// three.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TinyPieces {
+    /// Dropped, as qbsp does (the compiler's own portals).
+    #[default]
+    Drop,
+    /// Kept with its unmerged corners when they still span a plane (portals rebuilt from a
+    /// compiled BSP, which must round toward visible).
+    Keep,
+}
+
+impl TinyPieces {
+    /// The winding a finished piece becomes, or `None` when it is dropped.
+    fn finish(self, w: Winding) -> Option<Winding> {
+        let cleaned = w.cleaned(ON_EPSILON);
+        if !cleaned.is_empty() {
+            return Some(cleaned);
+        }
+        (self == TinyPieces::Keep && w.plane().is_some()).then_some(w)
+    }
+}
+
+/// Portalize `tree`, whose volume is `bounds` (tiny pieces dropped, as qbsp).
 pub fn build(tree: &Tree, planes: &PlaneSet, bounds: &Aabb) -> Portals {
+    build_with(tree, planes, bounds, TinyPieces::Drop)
+}
+
+/// Portalize `tree`, whose volume is `bounds`, treating tiny pieces as `tiny` says.
+pub fn build_with(tree: &Tree, planes: &PlaneSet, bounds: &Aabb, tiny: TinyPieces) -> Portals {
     let outside = tree.nodes.len() as u32;
     let mut g = Portals { portals: Vec::new(), by_node: vec![Vec::new(); tree.nodes.len()], outside };
     head_portals(&mut g, bounds);
@@ -47,8 +78,8 @@ pub fn build(tree: &Tree, planes: &PlaneSet, bounds: &Aabb) -> Portals {
     for index in 0..tree.nodes.len() as u32 {
         if let TreeNode::Node { plane, children, .. } = &tree.nodes[index as usize] {
             let plane_ref = planes.get(*plane as usize);
-            make_node_portal(&mut g, index, *plane, plane_ref, *children);
-            split_node_portals(&mut g, index, plane_ref, *children);
+            make_node_portal(&mut g, index, *plane, plane_ref, *children, tiny);
+            split_node_portals(&mut g, index, plane_ref, *children, tiny);
         }
     }
     g
@@ -85,7 +116,14 @@ fn add(g: &mut Portals, p: BuildPortal) {
     g.portals.push(p);
 }
 
-fn make_node_portal(g: &mut Portals, node: u32, plane_index: u32, plane: &Plane, children: [u32; 2]) {
+fn make_node_portal(
+    g: &mut Portals,
+    node: u32,
+    plane_index: u32,
+    plane: &Plane,
+    children: [u32; 2],
+    tiny: TinyPieces,
+) {
     let mut w = Some(Winding::base_for_plane(plane));
     for &id in &g.by_node[node as usize] {
         let Some(cur) = w else { break };
@@ -93,12 +131,12 @@ fn make_node_portal(g: &mut Portals, node: u32, plane_index: u32, plane: &Plane,
         let clip = if p.nodes[0] == node { p.plane } else { p.plane.flipped() };
         w = cur.clip(&clip, ON_EPSILON, false);
     }
-    if let Some(winding) = w.map(|w| w.cleaned(ON_EPSILON)).filter(|w| !w.is_empty()) {
+    if let Some(winding) = w.and_then(|w| tiny.finish(w)) {
         add(g, BuildPortal { plane: *plane, plane_index: Some(plane_index), nodes: children, winding });
     }
 }
 
-fn split_node_portals(g: &mut Portals, node: u32, plane: &Plane, children: [u32; 2]) {
+fn split_node_portals(g: &mut Portals, node: u32, plane: &Plane, children: [u32; 2], tiny: TinyPieces) {
     let list = std::mem::take(&mut g.by_node[node as usize]);
     for id in list {
         let p = &g.portals[id as usize];
@@ -111,8 +149,8 @@ fn split_node_portals(g: &mut Portals, node: u32, plane: &Plane, children: [u32;
             }
         }
         let split = p.winding.split(plane, ON_EPSILON);
-        let front = split.front.map(|w| w.cleaned(ON_EPSILON)).filter(|w| !w.is_empty());
-        let back = split.back.map(|w| w.cleaned(ON_EPSILON)).filter(|w| !w.is_empty());
+        let front = split.front.and_then(|w| tiny.finish(w));
+        let back = split.back.and_then(|w| tiny.finish(w));
         let template = g.portals[id as usize].clone();
         let mut reuse = Some(id);
         for (child, piece) in [(children[0], front), (children[1], back)] {

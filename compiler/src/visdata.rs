@@ -1,6 +1,7 @@
 //! A [`VisResult`] stored the way files hold a PVS: per cluster in a [`Level`] ([`store_pvs`]),
-//! per vis leaf in a Quake `.bsp` ([`write_into_bsp`]) or a `.vis` file ([`Rows::vis_file`]); and
-//! the input of vis on a Quake map, a `.bsp` with the `.prt` beside it ([`VisInput`]).
+//! per vis leaf in a Quake `.bsp` ([`write_into_bsp`]), a `.vis` file ([`Rows::vis_file`]) or an
+//! engine's external `.vis` record ([`vispatch_record`]); and the input of vis on a Quake map, a
+//! `.bsp` with the `.prt` beside it or with portals rebuilt from its tree ([`VisInput`]).
 //!
 //! # Conventions
 //! - Rows are uncompressed in Quake's byte layout ([`sightline_formats::bits::bytes`]) and
@@ -39,8 +40,10 @@ use sightline_formats::rle;
 use sightline_formats::texinfo_json::{self, TexinfoJson, TexinfoJsonError};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::visfile::{self, VisFileError};
+use sightline_formats::vispatch::{VisPatchError, VisPatchRecord};
 use thiserror::Error;
 
+use crate::bsp_portals::{self, BspPortalOptions, BspPortalStats, BspPortalsError};
 use crate::vis::VisResult;
 
 /// Why vis input could not be read or its rows not be stored.
@@ -132,6 +135,18 @@ pub enum VisdataError {
     /// The `NAME.texinfo.json` beside the `.bsp` does not parse (the error names the file).
     #[error(transparent)]
     TexinfoJson(#[from] TexinfoJsonError),
+    /// Portals could not be rebuilt from the `.bsp`'s tree ([`VisInput::from_bsp_tree`]).
+    #[error("{}: cannot rebuild portals from its tree", path.display())]
+    Portals {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with its tree.
+        #[source]
+        source: BspPortalsError,
+    },
+    /// The external `.vis` record could not be made ([`vispatch_record`]).
+    #[error(transparent)]
+    VisPatch(#[from] VisPatchError),
 }
 
 /// A Quake `.bsp`, as read for vis to write into.
@@ -181,7 +196,8 @@ impl AmbientOptions {
 /// What vis reads: a portal file, and the `.bsp` it belongs to when vis writes into one.
 #[derive(Debug, Clone)]
 pub struct VisInput {
-    /// The portal file: the one beside the `.bsp` ([`prt::beside_bsp`]), or the input itself.
+    /// The portal file: the one beside the `.bsp` ([`prt::beside_bsp`]), the input itself, or
+    /// the `.bsp` when the portals were rebuilt from its tree ([`VisInput::from_bsp_tree`]).
     pub prt_path: PathBuf,
     /// Its content.
     pub prt: PortalFile,
@@ -197,17 +213,7 @@ impl VisInput {
     /// ([`bsp::check_vis_layout`]) is refused here, before any work.
     pub fn read(path: &Path) -> Result<Self, VisdataError> {
         let is_bsp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp"));
-        let bsp = if is_bsp {
-            let bytes =
-                std::fs::read(path).map_err(|source| VisdataError::Read { path: path.into(), source })?;
-            let bsp = bsp::read(&bytes).map_err(|source| VisdataError::Bsp { path: path.into(), source })?;
-            bsp::check_vis_layout(&bsp.lumps)
-                .map_err(|source| VisdataError::Layout { path: path.into(), source })?;
-            let texinfo_json = read_texinfo_side(path, &bsp)?;
-            Some(BspInput { path: path.into(), bytes, bsp, texinfo_json })
-        } else {
-            None
-        };
+        let bsp = if is_bsp { Some(BspInput::read(path)?) } else { None };
         let prt_path = if is_bsp {
             let tried = prt::beside_bsp(path);
             match tried.iter().find(|p| p.is_file()) {
@@ -243,6 +249,18 @@ impl VisInput {
         Ok(Self { prt_path, prt, bsp })
     }
 
+    /// Reads the `.bsp` at `path` alone and rebuilds its portals from its world tree
+    /// ([`bsp_portals::build`] with `opts`); a portal file beside it is not read.
+    pub fn from_bsp_tree(
+        path: &Path,
+        opts: BspPortalOptions,
+    ) -> Result<(Self, BspPortalStats), VisdataError> {
+        let input = BspInput::read(path)?;
+        let built = bsp_portals::build(&input.bsp, opts)
+            .map_err(|source| VisdataError::Portals { path: path.into(), source })?;
+        Ok((Self { prt_path: path.into(), prt: built.prt, bsp: Some(input) }, built.stats))
+    }
+
     /// The ambient options of a run that switches off the sounds `off` (see
     /// [`AmbientOptions::off`]), with the `noambient` texinfos of the `.bsp`'s `NAME.texinfo.json`
     /// when it has one that matches.
@@ -252,6 +270,19 @@ impl VisInput {
             _ => Vec::new(),
         };
         AmbientOptions { off, silent_texinfo }
+    }
+}
+
+impl BspInput {
+    /// Reads the `.bsp` at `path`, refusing one whose lumps overlap where vis would write
+    /// ([`bsp::check_vis_layout`]), with the `NAME.texinfo.json` beside it when there is one.
+    pub fn read(path: &Path) -> Result<Self, VisdataError> {
+        let bytes = std::fs::read(path).map_err(|source| VisdataError::Read { path: path.into(), source })?;
+        let bsp = bsp::read(&bytes).map_err(|source| VisdataError::Bsp { path: path.into(), source })?;
+        bsp::check_vis_layout(&bsp.lumps)
+            .map_err(|source| VisdataError::Layout { path: path.into(), source })?;
+        let texinfo_json = read_texinfo_side(path, &bsp)?;
+        Ok(Self { path: path.into(), bytes, bsp, texinfo_json })
     }
 }
 
@@ -399,6 +430,25 @@ pub fn write_into_bsp_with(
     let levels = ambient_levels_with(bsp, result, ambient);
     bsp::write_vis_rows(original, bsp, &rows.data, &rows.leaf_offsets, Some(&levels))
         .map_err(VisdataError::BspWrite)
+}
+
+/// The external `.vis` record ([`sightline_formats::vispatch`]) named `map_name` that gives the
+/// BSP29 file `original` (parsed as `bsp`) the PVS of `rows`: the visibility and leaf lumps that
+/// [`write_into_bsp_with`] would write into it (rows, `visofs`, ambient levels), while the file
+/// itself stays as it is.
+pub fn vispatch_record(
+    map_name: &str,
+    original: &[u8],
+    bsp: &Bsp,
+    result: &VisResult,
+    rows: &Rows,
+    ambient: &AmbientOptions,
+) -> Result<VisPatchRecord, VisdataError> {
+    if bsp.version != bsp::BspVersion::Bsp29 {
+        return Err(VisPatchError::NotBsp29 { version: bsp.version.name() }.into());
+    }
+    let vised = write_into_bsp_with(original, bsp, result, rows, ambient)?;
+    Ok(VisPatchRecord::from_bsp29(map_name, &vised)?)
 }
 
 /// How far a BSP leaf's stored `mins`/`maxs` are grown for [`cluster_boxes`]: BSP29 and BSP2-RMQ

@@ -1,7 +1,8 @@
 //! Sightline's shared vocabulary: geometry primitives, bit rows (`bits`, as PVS rows are held in
 //! memory and in files), the level data model, the texture-name rules (`texture`), and every
 //! on-disk format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, `.slvl` and the
-//! `.vis` file), with `kind` telling them apart and `atomic` writing them.
+//! `.vis` file, and the external `.vis` files engines load beside a map: `vispatch`), with `kind`
+//! telling them apart and `atomic` writing them.
 //!
 //! The `.map` parser (`map`), the `.obj` loader (`obj`) and the reader of ericw-tools'
 //! `NAME.texinfo.json` (`texinfo_json`) are behind the features of the same names; telling those
@@ -35,6 +36,7 @@ pub mod texinfo_json;
 pub mod texture;
 mod tree_check;
 pub mod visfile;
+pub mod vispatch;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
 pub use kind::FileKind;

@@ -226,6 +226,103 @@ fn bsp_reader_survives_hostile_files() {
 }
 
 #[test]
+fn bsp_portal_rebuild_survives_hostile_trees() {
+    use sightline_compiler::bsp_portals::{self, BspPortalOptions};
+    use sightline_compiler::vis::{self, VisOptions};
+    let Some(plain) = shared("ericw/dm1.bsp") else { return };
+    let lumps = bsp::read(&plain).expect("dm1 reads").lumps;
+    // Mutations aimed at what the rebuild reads: nodes, planes, leaves and models.
+    let targets =
+        [bsp::lump::NODES, bsp::lump::PLANES, bsp::lump::LEAVES, bsp::lump::MODELS].map(|l| lumps[l]);
+    let nasty: [u32; 8] =
+        [0, u32::MAX, 0x8000_0000, 0x7f7f_ffff, 0x0080_0000, 0x4e6e_6b28, 0xcf00_0000, 0x7fff];
+    let mut vised = 0;
+    let mut built_ok = 0;
+    let mut round = 0;
+    let rejected = hammer(
+        "bsp portals",
+        &[plain],
+        300,
+        11,
+        |r, d| {
+            let mut out = d.to_vec();
+            for _ in 0..1 + r.below(4) {
+                let t = targets[r.below(targets.len())];
+                let at = t.offset + r.below(t.length.max(1));
+                match r.below(3) {
+                    0 => out[at] ^= 1 << r.below(8),
+                    1 => out[at] = r.next_u64() as u8,
+                    _ => {
+                        let at = (at & !3).min(out.len() - 4);
+                        out[at..at + 4].copy_from_slice(&nasty[r.below(nasty.len())].to_le_bytes());
+                    }
+                }
+            }
+            out
+        },
+        linear_bound,
+        |data| {
+            let Ok(b) = bsp::read(data) else { return false };
+            // Clusters from the stored rows on even rounds, every leaf its own on odd ones.
+            round += 1;
+            let opts = BspPortalOptions { no_clusters: round % 2 == 1, ..BspPortalOptions::default() };
+            let Ok(built) = bsp_portals::build(&b, opts) else { return false };
+            built_ok += 1;
+            let n = built.prt.num_leaves;
+            assert!(
+                built.prt.portals.iter().all(|p| p.leaves.iter().all(|&l| l < n) && p.winding.len() >= 3)
+            );
+            // Vis on the first few rebuilt graphs: an answer or an error, never a panic.
+            if vised < 4 {
+                vised += 1;
+                let _ = vis::run(&built.prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {});
+            }
+            true
+        },
+    );
+    assert!(rejected > 30, "only {rejected} of 300 mutated trees rejected");
+    assert!(built_ok > 30, "only {built_ok} of 300 mutated trees rebuilt");
+}
+
+#[test]
+fn external_vis_reader_survives_hostile_files() {
+    use sightline_formats::vispatch;
+    let leaves: Vec<u8> = (0..40u32)
+        .flat_map(|i| {
+            let mut leaf = [0u8; vispatch::LEAF_BYTES];
+            leaf[4..8].copy_from_slice(&(if i == 0 { -1 } else { (i % 3) as i32 }).to_le_bytes());
+            leaf
+        })
+        .collect();
+    let record = |name: &str| vispatch::VisPatchRecord {
+        map_name: name.into(),
+        visdata: vec![0xff, 0x0f, 0, 3, 1],
+        leaves: leaves.clone(),
+    };
+    let file = vispatch::write(&[record("e1m1.bsp"), record("e1m2.bsp")]).expect("write");
+    let rejected = hammer(
+        "external vis",
+        &[file],
+        2000,
+        12,
+        |r, d| mutate(r, d, vispatch::HEADER_BYTES + 8),
+        linear_bound,
+        |data| match vispatch::read(data) {
+            Ok(records) => {
+                for r in &records {
+                    for leaf in 0..=r.num_leaves() {
+                        let _ = r.decode_row(leaf, 39);
+                    }
+                }
+                true
+            }
+            Err(_) => false,
+        },
+    );
+    assert!(rejected > 1000, "only {rejected} of 2000 mutated external .vis files rejected");
+}
+
+#[test]
 fn q2_bsp_reader_survives_hostile_files() {
     let (Some(small), Some(big)) = (shared("q2/q2_detail_leak_test.ericw.bsp"), shared("q2/dm2.ericw.bsp"))
     else {

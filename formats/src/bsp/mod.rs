@@ -145,6 +145,15 @@ impl BspVersion {
         matches!(self, Self::Bsp29 | Self::Bsp30)
     }
 
+    /// Bytes of one node record.
+    pub fn node_bytes(self) -> usize {
+        match self {
+            Self::Bsp29 | Self::Bsp30 => 24,
+            Self::Bsp2 => 44,
+            Self::Bsp2Rmq => 32,
+        }
+    }
+
     /// Bytes of one leaf record.
     pub fn leaf_bytes(self) -> usize {
         match self {

@@ -7,14 +7,6 @@ use super::{
 use crate::le::Rec;
 use crate::tree_check::find_cycle;
 
-fn node_bytes(version: BspVersion) -> usize {
-    match version {
-        BspVersion::Bsp29 | BspVersion::Bsp30 => 24,
-        BspVersion::Bsp2 => 44,
-        BspVersion::Bsp2Rmq => 32,
-    }
-}
-
 fn face_bytes(version: BspVersion) -> usize {
     if version.narrow() { 20 } else { 28 }
 }
@@ -194,7 +186,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Bsp, BspError> {
     let visdata = bytes[lumps[lump::VISIBILITY].offset..lumps[lump::VISIBILITY].end()].to_vec();
 
     // Nodes: children are decoded once the leaf count is known.
-    let node_size = node_bytes(version);
+    let node_size = version.node_bytes();
     let mut raw_children = Vec::new();
     let mut nodes = Vec::new();
     for (offset, mut r) in records(bytes, &lumps, lump::NODES, node_size)? {
@@ -348,7 +340,7 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
             return Err(invalid(rec_offset(bsp, lump::VERTICES, 12, i), format!("vertex {i}"), "not finite"));
         }
     }
-    let node_size = node_bytes(v);
+    let node_size = v.node_bytes();
     for (i, n) in bsp.nodes.iter().enumerate() {
         let at = rec_offset(bsp, lump::NODES, node_size, i);
         if !n.mins.iter().chain(&n.maxs).all(|c| c.is_finite()) {

@@ -13,6 +13,7 @@ mod map_parse;
 mod mapgen;
 mod mesh_validate;
 mod render_pixels;
+mod revis;
 mod runtime_bench;
 mod runtime_compiled;
 mod runtime_ffi;

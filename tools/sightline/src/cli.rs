@@ -24,6 +24,8 @@ pub enum Command {
     Compile(cmd::compile::Args),
     /// Compute visibility for a Quake `.bsp` (reading its `.prt`) or a `.prt` file.
     Vis(cmd::vis::Args),
+    /// Rebuild the portal file (`.prt`) of a compiled Quake `.bsp` from its tree.
+    Portals(cmd::portals::Args),
     /// Prove a PVS conservative by ray sampling and measure how tight it is.
     Validate(cmd::validate::Args),
     /// Print counts and bounds of any file Sightline reads.
@@ -62,6 +64,7 @@ pub fn main() -> i32 {
     let result = match &cli.command {
         Command::Compile(a) => cmd::compile::run(a),
         Command::Vis(a) => cmd::vis::run(a),
+        Command::Portals(a) => cmd::portals::run(a),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Render(a) => cmd::render::run(a),

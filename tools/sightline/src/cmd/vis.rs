@@ -29,12 +29,13 @@ use anyhow::{Context, bail};
 
 use sightline_compiler::phs;
 use sightline_compiler::vis::{self, VisOptions, VisPhase, VisProgress, VisResult, VisStats};
-use sightline_compiler::visdata::{self, Rows, VisInput};
+use sightline_compiler::visdata::{self, Rows};
 use sightline_formats::bsp::q2;
 use sightline_formats::prt::{PortalFile, PrtFormat};
 use sightline_formats::texture::Ambient;
 
 use crate::cli::Outcome;
+use crate::cmd::vis_external;
 
 /// Arguments of `sightline vis`. `Default` (for callers building them in code) is every flag off,
 /// no input and `threads` 0 (rayon's choice).
@@ -93,6 +94,26 @@ pub struct Args {
     /// changing no byte of the PVS rows (repairs the PHS ericw-tools 2.0.0-alpha11 writes).
     #[arg(long)]
     pub phs_only: bool,
+    /// Rebuild the portals from the `.bsp`'s own tree instead of reading a `.prt` (one beside it
+    /// is ignored): re-vis a compiled map without its source.
+    #[arg(long)]
+    pub portals_from_bsp: bool,
+    /// With --portals-from-bsp: whether water, slime and lava let sight through [default:
+    /// transparent].
+    #[arg(long, value_enum)]
+    pub water: Option<crate::cmd::portals::Water>,
+    /// With --portals-from-bsp: give every leaf its own cluster, even where the file's own PVS
+    /// gives all open leaves under a node one row (qbsp's detail clusters): tighter, slower.
+    #[arg(long)]
+    pub no_clusters: bool,
+    /// Write the PVS into an external `.vis` file (as Quakespasm, vkQuake, QSS and Mark V load
+    /// beside a BSP29 map) and leave the `.bsp` as it is. Given a folder, one pack of every `.bsp`
+    /// in it (needs -o).
+    #[arg(long)]
+    pub external_vis: bool,
+    /// With --external-vis: the file to write (default: the `.bsp`'s name with `.vis`).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
 }
 
 impl Args {
@@ -322,6 +343,8 @@ pub struct Report {
     pub output: String,
     /// Portal file format (`PRT1`, `PRT2`, `PRT1-AM`).
     pub prt_format: String,
+    /// Under `--portals-from-bsp`: the counts of the portals rebuilt from the tree.
+    pub portals_rebuilt: Option<sightline_compiler::bsp_portals::BspPortalStats>,
     /// Vis statistics (leaves, clusters, visible counts, chains, phase times).
     pub vis: VisStats,
     /// Bytes of compressed PVS rows written.
@@ -348,16 +371,22 @@ pub struct Report {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = resolve_input(&args.input);
+    // Every `IBSP` (Quake 2 and Quake 3) starts like Quake 2.
+    let q2 = starts_like_q2(&path);
+    vis_external::check_flags(args, &path, q2)?;
+    if args.external_vis && path.is_dir() {
+        return vis_external::run_folder(args, &path);
+    }
     if super::vis_q3::starts_like_q3(&path) {
         return super::vis_q3::run(args, &path, t0);
     }
-    if starts_like_q2(&path) {
+    if q2 {
         return run_q2(args, &path, t0);
     }
     if args.phs_only {
         bail!("{}: --phs-only needs a Quake 2 .bsp (IBSP 38)", path.display());
     }
-    let input = VisInput::read(&path)?;
+    let (input, rebuilt) = vis_external::read_input(args, &path)?;
     let farplane = args.farplane.filter(|&d| d > 0.0);
     if farplane.is_some() && input.bsp.is_none() {
         bail!(
@@ -387,6 +416,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t1 = Instant::now();
     let rows = Rows::new(&result);
     let output = match &input.bsp {
+        Some(b) if args.external_vis => vis_external::write_single(args, &path, b, &result, &rows, &ambient)?,
         Some(b) => {
             let out = visdata::write_into_bsp_with(&b.bytes, &b.bsp, &result, &rows, &ambient)?;
             sightline_formats::atomic::write_file_atomic(&path, &out)
@@ -405,6 +435,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         input: path.display().to_string(),
         output: output.display().to_string(),
         prt_format: input.prt.format.header().to_string(),
+        portals_rebuilt: rebuilt,
         vis: result.stats.clone(),
         compressed_bytes: rows.data.len(),
         farplane,
@@ -665,6 +696,9 @@ fn text_report(r: &Report) -> String {
     }
     if let Some(t) = &r.texinfo_json {
         extra += &format!("{t}: {} texinfos make no ambient sound\n", r.noambient_texinfos);
+    }
+    if let Some(s) = &r.portals_rebuilt {
+        extra += &crate::cmd::portals::stats_line(s);
     }
     let mode = if v.fast { "fast (base vis only)".to_string() } else { format!("full, level {}", v.level) };
     format!(
