@@ -458,19 +458,53 @@ pub const LEAF_BOUNDS_SLACK: f64 = 1.0;
 /// One box per cluster of `prt` holding every point of its leaves, for
 /// [`crate::vis::farplane::cull`]: the union of its leaves' BSP bounds (vis leaf `j` is BSP leaf
 /// `j + 1`), grown by [`LEAF_BOUNDS_SLACK`], and of its portal windings. A cluster with a leaf the
-/// `.bsp` lacks, or whose stored bounds are not finite, gets an unbounded box (never culled).
+/// `.bsp` lacks, or whose stored bounds are not finite or inverted, gets an unbounded box (never
+/// culled).
 pub fn cluster_boxes(bsp: &Bsp, prt: &PortalFile) -> Vec<Aabb> {
+    let leaves = prt.leaf_clusters.iter().enumerate().map(|(j, &c)| {
+        let bounds = bsp.leaves.get(j + 1).map(|l| (l.mins, l.maxs));
+        (c as usize, bounds)
+    });
+    cluster_boxes_from(prt, leaves)
+}
+
+/// [`cluster_boxes`] for a level whose clusters are the portal file's (a Quake 2 file through
+/// `bsp::q2::to_level`, whose PRT1 names clusters): the union, per cluster, of the bounds of
+/// every level leaf in it (solid leaves, cluster -1, skipped) and of its portal windings. A
+/// cluster no leaf names gets an unbounded box.
+pub fn level_cluster_boxes(level: &Level, prt: &PortalFile) -> Vec<Aabb> {
+    let leaves = level
+        .leaves
+        .iter()
+        .filter_map(|l| usize::try_from(l.cluster).ok().map(|c| (c, Some((l.mins, l.maxs)))));
+    cluster_boxes_from(prt, leaves)
+}
+
+/// One box per cluster of `prt` from `(cluster, leaf bounds)` pairs (`None`: the leaf's bounds
+/// are unknown) and the portal windings; clusters no pair names, or with a leaf of unknown,
+/// non-finite or inverted bounds (compilers store cleared bounds for a leaf they never sized),
+/// are unbounded. Leaf boxes grow by [`LEAF_BOUNDS_SLACK`].
+fn cluster_boxes_from(
+    prt: &PortalFile,
+    leaves: impl Iterator<Item = (usize, Option<([f32; 3], [f32; 3])>)>,
+) -> Vec<Aabb> {
     let unbounded = Aabb::new(DVec3::NEG_INFINITY, DVec3::INFINITY);
-    let mut boxes = vec![Aabb::EMPTY; prt.num_clusters as usize];
-    for (j, &c) in prt.leaf_clusters.iter().enumerate() {
-        let Some(slot) = boxes.get_mut(c as usize) else { continue };
-        let leaf_box = bsp
-            .leaves
-            .get(j + 1)
-            .map(|l| Aabb::new(DVec3::from(l.mins.map(f64::from)), DVec3::from(l.maxs.map(f64::from))))
-            .filter(|b| b.mins.is_finite() && b.maxs.is_finite())
+    let n = prt.num_clusters as usize;
+    let mut boxes = vec![Aabb::EMPTY; n];
+    let mut named = vec![false; n];
+    for (c, bounds) in leaves {
+        let Some(slot) = boxes.get_mut(c) else { continue };
+        named[c] = true;
+        let leaf_box = bounds
+            .map(|(lo, hi)| Aabb::new(DVec3::from(lo.map(f64::from)), DVec3::from(hi.map(f64::from))))
+            .filter(|b| b.mins.is_finite() && b.maxs.is_finite() && b.mins.cmple(b.maxs).all())
             .map_or(unbounded, |b| b.expanded(LEAF_BOUNDS_SLACK));
         *slot = slot.union(&leaf_box);
+    }
+    for (slot, named) in boxes.iter_mut().zip(named) {
+        if !named {
+            *slot = unbounded;
+        }
     }
     for p in &prt.portals {
         let w = p.winding.bounds();
@@ -648,5 +682,39 @@ mod tests {
         assert!(!boxes[c].mins.is_finite() && boxes[c].maxs.x == f64::INFINITY);
         bsp.leaves.truncate(1);
         assert!(cluster_boxes(bsp, &input.prt).iter().all(|bx| bx.mins.x == f64::NEG_INFINITY));
+        // Inverted (cleared) stored bounds are unknown bounds too.
+        let bsp = &mut input.bsp.as_mut().expect("bsp").bsp;
+        *bsp = VisInput::read(&bsp_path).expect("dm1").bsp.expect("bsp").bsp;
+        bsp.leaves[1].mins = [1.0; 3];
+        bsp.leaves[1].maxs = [-1.0; 3];
+        assert_eq!(cluster_boxes(bsp, &input.prt)[c].maxs.x, f64::INFINITY);
+    }
+
+    #[test]
+    fn level_cluster_boxes_union_the_leaves_of_each_cluster_and_leave_unnamed_ones_unbounded() {
+        use sightline_formats::bsp::q2;
+        let Some(dir) = sightline_formats::shared_maps::dir() else { return };
+        let (bsp_path, prt_path) = (dir.join("q2/dm2.bsp"), dir.join("q2/dm2.prt"));
+        let (Ok(bytes), Ok(prt_bytes)) = (std::fs::read(&bsp_path), std::fs::read(&prt_path)) else { return };
+        let file = q2::read(&bytes).expect("dm2");
+        let mut level = q2::to_level(&bytes, &file).expect("dm2 level");
+        let prt = sightline_formats::prt::read_bytes(&prt_bytes, "dm2.prt").expect("dm2.prt");
+        let boxes = level_cluster_boxes(&level, &prt);
+        assert_eq!(boxes.len(), prt.num_clusters as usize);
+        for l in level.leaves.iter().filter(|l| l.cluster >= 0) {
+            let bx = &boxes[l.cluster as usize];
+            let (mins, maxs) = (DVec3::from(l.mins.map(f64::from)), DVec3::from(l.maxs.map(f64::from)));
+            assert!(bx.contains_point(mins, 0.0) && bx.contains_point(maxs, 0.0));
+            assert!(bx.mins.is_finite() && bx.maxs.is_finite(), "dm2 stores sound bounds");
+        }
+        // A cluster no leaf names, or one of whose leaves has inverted bounds, is unbounded.
+        let c = level.leaves.iter().position(|l| l.cluster >= 0).expect("an open leaf");
+        let cluster = level.leaves[c].cluster as usize;
+        level.leaves[c].mins = [1.0; 3];
+        level.leaves[c].maxs = [-1.0; 3];
+        assert_eq!(level_cluster_boxes(&level, &prt)[cluster].maxs.x, f64::INFINITY);
+        level.leaves.iter_mut().filter(|l| l.cluster == cluster as i32).for_each(|l| l.cluster = -1);
+        let boxes = level_cluster_boxes(&level, &prt);
+        assert_eq!((boxes[cluster].mins.x, boxes[cluster].maxs.x), (f64::NEG_INFINITY, f64::INFINITY));
     }
 }

@@ -360,6 +360,68 @@ fn vis_farplane_hides_only_pairs_farther_than_it() {
     assert!(stderr(&o).contains("dm1.prt"), "{}", stderr(&o));
 }
 
+#[test]
+fn quake2_vis_farplane_hides_only_clusters_farther_apart_and_keeps_the_phs_a_union() {
+    use sightline_formats::bsp::q2::{self, Q2Row};
+    let Some(dm2) = shared_map("q2/dm2.bsp") else { return };
+    let full = copy_map(&dm2, "q2-farplane-off", "dm2");
+    run_in(&full, &["vis", "-threads", "2", "dm2"]);
+    let far = copy_map(&dm2, "q2-farplane-512", "dm2");
+    let j = stdout_json(&run_in(&far, &["vis", "-threads", "2", "-farplane", "512", "dm2", "--json"]));
+    assert_eq!(j["farplane"], 512.0, "{j}");
+    let read = |dir: &Path| std::fs::read(dir.join("dm2.bsp")).expect("read dm2.bsp");
+    let (bytes_a, bytes_b) = (read(&full), read(&far));
+    let (a, b) = (q2::read(&bytes_a).expect("q2"), q2::read(&bytes_b).expect("q2"));
+    let (va, vb) = (a.vis.clone().expect("vised"), b.vis.clone().expect("vised"));
+    let n = va.num_clusters;
+    let rb = va.row_bytes();
+    let (pa, pb) = (va.decode_all(Q2Row::Pvs).expect("rows"), vb.decode_all(Q2Row::Pvs).expect("rows"));
+    let phs = vb.decode_all(Q2Row::Phs).expect("rows");
+    let bit = |rows: &[u8], i: usize, k: usize| rows[i * rb + k / 8] & (1 << (k % 8)) != 0;
+    // The nearest distance between the stored bounds of any leaf of cluster i and any of k.
+    let level = q2::to_level(&bytes_b, &b).expect("level");
+    let gap = |i: usize, k: usize| {
+        let of = |c: usize| level.leaves.iter().filter(move |l| l.cluster == c as i32);
+        of(i)
+            .flat_map(|p| of(k).map(move |q| (p, q)))
+            .map(|(p, q)| {
+                (0..3)
+                    .map(|x| f64::from((p.mins[x] - q.maxs[x]).max(q.mins[x] - p.maxs[x]).max(0.0)).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut hidden = 0;
+    for i in 0..n {
+        assert!(bit(&pb, i, i), "cluster {i} still sees itself");
+        // The PHS is the union of the culled PVS rows of what cluster i sees.
+        let mut heard = vec![0u8; rb];
+        for m in (0..n).filter(|&m| bit(&pb, i, m)) {
+            heard.iter_mut().zip(&pb[m * rb..(m + 1) * rb]).for_each(|(h, r)| *h |= r);
+        }
+        assert_eq!(heard, phs[i * rb..(i + 1) * rb], "PHS row of cluster {i}");
+        for k in 0..n {
+            let (seen_a, seen_b) = (bit(&pa, i, k), bit(&pb, i, k));
+            assert!(!seen_b || seen_a, "the far plane only hides: {i} -> {k}");
+            if seen_a && !seen_b {
+                hidden += 1;
+                assert!(gap(i, k) > 512.0, "{i} -> {k} hidden at {} units", gap(i, k));
+            }
+        }
+    }
+    assert!(hidden > 0, "dm2 has clusters more than 512 units apart that see each other");
+    assert_eq!(j["farplane_hidden_pairs"].as_u64(), Some(hidden as u64 / 2), "{j}");
+    // --phs-only keeps the PVS byte for byte: a far plane there is an error.
+    let o = bin()
+        .args(["vis", "--phs-only", "-farplane", "512", "dm2"])
+        .current_dir(&far)
+        .output()
+        .expect("runs");
+    assert_eq!(code(&o), 2);
+    assert!(stderr(&o).contains("--phs-only"), "{}", stderr(&o));
+}
+
 /// Run `args` with stdout a pipe whose reading end is closed before the command prints: its exit
 /// code and stderr (the code it exits with when the reader goes away).
 fn run_into_closed_pipe(args: &[&str]) -> (i32, String) {

@@ -4,7 +4,9 @@
 //! A Quake 2 `.bsp` (`IBSP` 38) takes its own path: qbsp's PRT1 beside it names clusters, so vis
 //! computes cluster rows, [`sightline_compiler::phs`] adds the PHS, and the visibility lump is
 //! replaced ([`sightline_formats::bsp::q2`]). `--phs-only` recomputes only the PHS of a vised
-//! file, keeping every PVS byte. Far plane and ambient options do not apply there. A Quake 3
+//! file, keeping every PVS byte. The far plane culls by cluster boxes made from the file's
+//! leaves ([`visdata::level_cluster_boxes`]) before the PHS is formed; ambient options do not
+//! apply there. A Quake 3
 //! `.bsp` (`IBSP` 46/47) goes to [`super::vis_q3`].
 //!
 //! The library does the work: [`sightline_compiler::visdata`] reads the input, lays out the rows
@@ -503,6 +505,10 @@ pub struct Q2Report {
     pub phs_pairs: u64,
     /// Under `--phs-only`: PHS rows that changed, and bits added and removed.
     pub phs_repair: Option<phs::PhsRepair>,
+    /// `--farplane` distance, when given.
+    pub farplane: Option<f64>,
+    /// Cluster pairs (unordered) the far plane hid.
+    pub farplane_hidden_pairs: Option<u64>,
     /// Bytes of the visibility lump written.
     pub visibility_bytes: usize,
     /// Total seconds.
@@ -513,12 +519,13 @@ pub struct Q2Report {
 /// PRT1 names clusters), the PHS ([`phs::phs`]), the visibility lump written back; or, under
 /// `--phs-only`, only the PHS recomputed from the PVS in the file.
 fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
-    if args.farplane.is_some_and(|d| d > 0.0) {
-        bail!("{}: --farplane is not supported for Quake 2 BSPs yet", path.display());
-    }
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let file = q2::read(&bytes).with_context(|| format!("{}", path.display()))?;
     q2::check_vis_layout(&file.lumps).with_context(|| format!("{}", path.display()))?;
+    let farplane = args.farplane.filter(|&d| d > 0.0);
+    if args.phs_only && farplane.is_some() {
+        bail!("{}: --farplane changes the PVS, which --phs-only keeps byte for byte", path.display());
+    }
     let (out, report) = if args.phs_only {
         let (out, repair) = phs::repair_phs(&bytes).with_context(|| format!("{}", path.display()))?;
         let report = Q2Report {
@@ -531,6 +538,8 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
             pvs_pairs: repair.pvs_pairs,
             phs_pairs: repair.phs_pairs,
             phs_repair: Some(repair),
+            farplane: None,
+            farplane_hidden_pairs: None,
             visibility_bytes: 0,
             total_seconds: 0.0,
         };
@@ -555,7 +564,13 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
         }
         remove_state(args)?;
         let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-        let result = compute(&prt, &opts, args.json || args.no_progress)?;
+        let mut result = compute(&prt, &opts, args.json || args.no_progress)?;
+        let mut farplane_hidden_pairs = None;
+        if let Some(d) = farplane {
+            let level = q2::to_level(&bytes, &file).with_context(|| format!("{}", path.display()))?;
+            let boxes = visdata::level_cluster_boxes(&level, &prt);
+            farplane_hidden_pairs = Some(vis::farplane::cull(&mut result, &boxes, d)?);
+        }
         let n = clusters;
         let mut rows = Vec::with_capacity(n * sightline_formats::bits::bytes::len(n));
         let mut row = Vec::new();
@@ -578,6 +593,8 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
             pvs_pairs: sightline_formats::bits::count(&pvs),
             phs_pairs: sightline_formats::bits::count(&phs_rows),
             phs_repair: None,
+            farplane,
+            farplane_hidden_pairs,
             visibility_bytes: 0,
             total_seconds: 0.0,
         };
@@ -604,6 +621,9 @@ fn q2_text_report(r: &Q2Report) -> String {
             "vis {mode}, {} threads, {} portals; base {:.3} s, flow {:.3} s\n",
             v.threads, v.portals, v.base_seconds, v.flow_seconds
         );
+    }
+    if let (Some(d), Some(hidden)) = (r.farplane, r.farplane_hidden_pairs) {
+        s += &format!("far plane {d}: {hidden} cluster pairs hidden\n");
     }
     s += &format!("PVS pairs {}, PHS pairs {}\n", r.pvs_pairs, r.phs_pairs);
     if let Some(f) = &r.phs_repair {
