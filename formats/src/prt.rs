@@ -160,6 +160,19 @@ pub struct PortalFile {
     pub leaf_clusters: Vec<u32>,
 }
 
+impl PortalFile {
+    /// A PRT1 file of `num_leaves` leaves, each its own cluster, with `portals` between them.
+    pub fn prt1(num_leaves: u32, portals: Vec<PrtPortal>) -> Self {
+        Self {
+            format: PrtFormat::Prt1,
+            num_leaves,
+            num_clusters: num_leaves,
+            portals,
+            leaf_clusters: (0..num_leaves).collect(),
+        }
+    }
+}
+
 /// What went wrong while reading a `.prt`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]

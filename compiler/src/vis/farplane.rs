@@ -75,7 +75,7 @@ pub fn cull(result: &mut VisResult, cluster_boxes: &[Aabb], distance: f64) -> Re
 mod tests {
     use glam::DVec3;
     use sightline_formats::geom::Winding;
-    use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
+    use sightline_formats::prt::{PortalFile, PrtPortal};
 
     use super::*;
     use crate::vis::{self, VisOptions};
@@ -96,13 +96,7 @@ mod tests {
                 PrtPortal { leaves: [i - 1, i], winding: w }
             })
             .collect();
-        let prt = PortalFile {
-            format: PrtFormat::Prt1,
-            num_leaves: n,
-            num_clusters: n,
-            portals,
-            leaf_clusters: (0..n).collect(),
-        };
+        let prt = PortalFile::prt1(n, portals);
         let result =
             vis::run(&prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {}).expect("vis");
         let boxes = (0..n)

@@ -465,7 +465,7 @@ fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, tmp
 mod tests {
     use glam::DVec3;
     use sightline_formats::geom::Winding;
-    use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
+    use sightline_formats::prt::{PortalFile, PrtPortal};
 
     use super::*;
     use crate::vis::base;
@@ -481,13 +481,7 @@ mod tests {
                 PrtPortal { leaves: [i, i + 1], winding: Winding::new(pts.to_vec()) }
             })
             .collect();
-        PortalFile {
-            format: PrtFormat::Prt1,
-            num_leaves: n,
-            num_clusters: n,
-            portals,
-            leaf_clusters: (0..n).collect(),
-        }
+        PortalFile::prt1(n, portals)
     }
 
     #[test]

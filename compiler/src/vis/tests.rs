@@ -34,13 +34,7 @@ fn corridor(offsets: &[f64], widths: &[f64]) -> PortalFile {
         })
         .collect::<Vec<_>>();
     let n = offsets.len() as u32 + 1;
-    PortalFile {
-        format: PrtFormat::Prt1,
-        num_leaves: n,
-        num_clusters: n,
-        portals,
-        leaf_clusters: (0..n).collect(),
-    }
+    PortalFile::prt1(n, portals)
 }
 
 fn none() -> impl Fn(VisProgress) + Sync {
@@ -197,13 +191,7 @@ fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
         }
     }
     let n = nx * ny;
-    PortalFile {
-        format: PrtFormat::Prt1,
-        num_leaves: n,
-        num_clusters: n,
-        portals,
-        leaf_clusters: (0..n).collect(),
-    }
+    PortalFile::prt1(n, portals)
 }
 
 /// What a state for `prt` under `opts` must match.

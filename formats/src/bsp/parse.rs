@@ -22,7 +22,7 @@ fn records<'a>(
 }
 
 /// As [`records`], for any Quake-family lump table (`names` names the lumps in errors).
-pub(super) fn lump_records<'a, const N: usize>(
+pub(crate) fn lump_records<'a, const N: usize>(
     bytes: &'a [u8],
     lumps: &[LumpEntry; N],
     names: &[&'static str; N],
@@ -42,7 +42,7 @@ pub(super) fn lump_records<'a, const N: usize>(
     Ok(data.chunks_exact(size).enumerate().map(move |(i, chunk)| (entry.offset + i * size, Rec::new(chunk))))
 }
 
-pub(super) fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
+pub(crate) fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
     BspError::Invalid { offset, what: what.into(), detail: detail.into() }
 }
 
@@ -109,6 +109,33 @@ pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_L
 
 /// The lump table of a Quake-family BSP header at `head`'s position: per lump an `i32` offset and
 /// length, each lump inside the file (`bytes`). `names` names the lumps in errors.
+/// Reads an `IBSP` header (Quake 2 and Quake 3 share its shape): the magic, a version from
+/// `versions` (named as `expected` in the error), then the lump table of `names.len()` lumps,
+/// each inside the file. `game` names the header in errors. Returns the version and the lumps.
+pub(crate) fn read_ibsp_header<const N: usize>(
+    bytes: &[u8],
+    game: &str,
+    versions: &[i32],
+    expected: &str,
+    names: &[&'static str; N],
+) -> Result<(i32, [LumpEntry; N]), BspError> {
+    let header_bytes = 8 + 8 * N;
+    let what = format!("{game} header");
+    if bytes.len() < header_bytes {
+        return Err(invalid(0, what, format!("file is {} bytes, shorter than {header_bytes}", bytes.len())));
+    }
+    let mut head = Rec::new(bytes);
+    let magic: [u8; 4] = head.take();
+    if magic != *b"IBSP" {
+        return Err(BspError::Version { magic });
+    }
+    let version = head.i32();
+    if !versions.contains(&version) {
+        return Err(invalid(4, what, format!("version {version}, expected {expected}")));
+    }
+    Ok((version, read_lump_table(bytes, &mut head, names)?))
+}
+
 pub(crate) fn read_lump_table<const N: usize>(
     bytes: &[u8],
     head: &mut Rec<'_>,

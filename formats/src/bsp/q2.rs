@@ -14,6 +14,7 @@
 //! - A leaf with cluster `-1` (solid) has no row. Leaves are 28-byte records: `int32 contents`,
 //!   `int16 cluster`, `int16 area`, bounds and indices (not decoded here).
 
+use super::parse::invalid;
 use super::{BspError, LumpEntry};
 
 mod level;
@@ -170,29 +171,10 @@ impl Q2Bsp {
     }
 }
 
-fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
-    BspError::Invalid { offset, what: what.into(), detail: detail.into() }
-}
-
 /// Reads the header: magic, version 38 and 19 lumps inside the file.
 pub fn read_header(bytes: &[u8]) -> Result<[LumpEntry; NUM_LUMPS], BspError> {
-    if bytes.len() < HEADER_BYTES {
-        return Err(invalid(
-            0,
-            "Quake 2 header",
-            format!("file is {} bytes, shorter than {HEADER_BYTES}", bytes.len()),
-        ));
-    }
-    let mut head = Rec::new(bytes);
-    let magic: [u8; 4] = head.take();
-    if magic != MAGIC {
-        return Err(BspError::Version { magic });
-    }
-    let version = head.i32();
-    if version != VERSION {
-        return Err(invalid(4, "Quake 2 header", format!("version {version}, expected {VERSION}")));
-    }
-    super::parse::read_lump_table(bytes, &mut head, &lump::NAMES)
+    let (_, lumps) = super::parse::read_ibsp_header(bytes, "Quake 2", &[VERSION], "38", &lump::NAMES)?;
+    Ok(lumps)
 }
 
 /// Parses and validates a Quake 2 BSP as far as vis needs it (see the module docs).

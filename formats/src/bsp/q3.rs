@@ -26,6 +26,7 @@
 //!   brush ranges, not decoded here); planes 16 (`float normal[3], dist`); models 40 (`float
 //!   mins[3], maxs[3]`, then surface and brush ranges).
 
+use super::parse::invalid;
 use super::{BspError, LumpEntry};
 use crate::bits;
 use crate::le::Rec;
@@ -202,29 +203,9 @@ impl Q3Bsp {
     }
 }
 
-fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
-    BspError::Invalid { offset, what: what.into(), detail: detail.into() }
-}
-
 /// Reads the header: magic, version 46 or 47 and 17 lumps inside the file.
 pub fn read_header(bytes: &[u8]) -> Result<(i32, [LumpEntry; NUM_LUMPS]), BspError> {
-    if bytes.len() < HEADER_BYTES {
-        return Err(invalid(
-            0,
-            "Quake 3 header",
-            format!("file is {} bytes, shorter than {HEADER_BYTES}", bytes.len()),
-        ));
-    }
-    let mut head = Rec::new(bytes);
-    let magic: [u8; 4] = head.take();
-    if magic != MAGIC {
-        return Err(BspError::Version { magic });
-    }
-    let version = head.i32();
-    if !VERSIONS.contains(&version) {
-        return Err(invalid(4, "Quake 3 header", format!("version {version}, expected 46 or 47")));
-    }
-    Ok((version, super::parse::read_lump_table(bytes, &mut head, &lump::NAMES)?))
+    super::parse::read_ibsp_header(bytes, "Quake 3", &VERSIONS, "46 or 47", &lump::NAMES)
 }
 
 /// The records of lump `index`, each with its byte offset; the length must be a multiple of
@@ -235,17 +216,7 @@ fn records<'a>(
     index: usize,
     size: usize,
 ) -> Result<impl Iterator<Item = (usize, Rec<'a>)>, BspError> {
-    let entry = lumps[index];
-    if !entry.length.is_multiple_of(size) {
-        return Err(BspError::LumpSize {
-            offset: entry.offset,
-            name: lump::NAMES[index],
-            length: entry.length,
-            record: size,
-        });
-    }
-    let data = bytes.get(entry.offset..entry.end()).unwrap_or_default();
-    Ok(data.chunks_exact(size).enumerate().map(move |(i, c)| (entry.offset + i * size, Rec::new(c))))
+    super::parse::lump_records(bytes, lumps, &lump::NAMES, index, size)
 }
 
 fn ivec3(r: &mut Rec<'_>) -> [i32; 3] {

@@ -4,7 +4,9 @@
 
 // Every print in this crate goes through `out`, which never panics (a closed stdout pipe, as in
 // `sightline info x | head -1`, is not an error): these shadow the standard macros, which panic
-// when a write fails. Defined before the modules so that they are in scope in all of them.
+// when a write fails. Defined before the modules so that they are in scope in all of them; kept
+// even when unused, so that a new `print!` cannot reach the standard one.
+#[allow(unused_macros)]
 macro_rules! print {
     ($($arg:tt)*) => { $crate::out::stdout(format_args!($($arg)*), false) };
 }

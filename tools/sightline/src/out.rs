@@ -37,6 +37,20 @@ pub fn stdout(args: fmt::Arguments<'_>, newline: bool) {
     }
 }
 
+/// A command's report on stdout: pretty JSON under `--json`, else the text `text` makes.
+pub fn report<R: serde::Serialize>(
+    json: bool,
+    report: &R,
+    text: impl FnOnce() -> String,
+) -> anyhow::Result<()> {
+    if json {
+        stdout(format_args!("{}", serde_json::to_string_pretty(report)?), true);
+    } else {
+        stdout(format_args!("{}", text()), false);
+    }
+    Ok(())
+}
+
 /// Write `args` (and a newline) to stderr, ignoring failures.
 pub fn stderr(args: fmt::Arguments<'_>, newline: bool) {
     let mut err = std::io::stderr().lock();

@@ -16,7 +16,7 @@ use std::fmt::Write as _;
 
 use glam::DVec3;
 use sightline_formats::geom::Winding;
-use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
+use sightline_formats::prt::{PortalFile, PrtPortal};
 use sightline_formats::rng::SplitMix64;
 
 use crate::mapgen::{IBox, WALL, write_box};
@@ -52,13 +52,7 @@ pub fn corridor_prt(n: u32) -> PortalFile {
             PrtPortal { leaves: [i, i + 1], winding: Winding::new(points) }
         })
         .collect();
-    PortalFile {
-        format: PrtFormat::Prt1,
-        num_leaves: n,
-        num_clusters: n,
-        portals,
-        leaf_clusters: (0..n).collect(),
-    }
+    PortalFile::prt1(n, portals)
 }
 
 /// Worldspawn around one air box, and an `info_player_start` at `start`.

@@ -27,11 +27,7 @@ pub struct Args {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let report = report(&args.input)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", report.to_text());
-    }
+    crate::out::report(args.json, &report, || report.to_text())?;
     Ok(Outcome::Clean)
 }
 

@@ -98,11 +98,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         build_seconds,
         total_seconds: t0.elapsed().as_secs_f64(),
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", text_report(&report));
-    }
+    crate::out::report(args.json, &report, || text_report(&report))?;
     Ok(Outcome::Clean)
 }
 

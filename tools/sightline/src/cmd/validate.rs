@@ -79,10 +79,6 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut v =
         pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;
     v.report.input = args.input.display().to_string();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&v.report)?);
-    } else {
-        print!("{}", v.report.text());
-    }
+    crate::out::report(args.json, &v.report, || v.report.text())?;
     Ok(if v.report.misses() > 0 { Outcome::Finding } else { Outcome::Clean })
 }

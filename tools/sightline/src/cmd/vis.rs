@@ -453,11 +453,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         write_seconds: t1.elapsed().as_secs_f64(),
         total_seconds: t0.elapsed().as_secs_f64(),
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", text_report(&report));
-    }
+    crate::out::report(args.json, &report, || text_report(&report))?;
     Ok(Outcome::Clean)
 }
 
@@ -477,11 +473,17 @@ pub(crate) fn remove_state(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// True when `path` is a file that starts with Quake 2's `IBSP`.
-fn starts_like_q2(path: &Path) -> bool {
+/// The first 8 bytes of the file at `path` (magic and version), or `None` when it has fewer or
+/// cannot be read (the readers report that properly later).
+pub(crate) fn file_head(path: &Path) -> Option<[u8; 8]> {
     use std::io::Read;
-    let mut magic = [0u8; 4];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && q2::is_q2(&magic)
+    let mut head = [0u8; 8];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).ok().map(|()| head)
+}
+
+/// True when `path` is a file that starts with `IBSP` (Quake 2, and Quake 3 too).
+fn starts_like_q2(path: &Path) -> bool {
+    file_head(path).is_some_and(|h| q2::is_q2(&h))
 }
 
 /// What `sightline vis` reports for a Quake 2 `.bsp` (`--json` prints this).
@@ -604,11 +606,7 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
         .with_context(|| format!("cannot write {}", path.display()))?;
     let visibility_bytes = q2::read_header(&out).map_or(0, |l| l[q2::lump::VISIBILITY].length);
     let report = Q2Report { visibility_bytes, total_seconds: t0.elapsed().as_secs_f64(), ..report };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", q2_text_report(&report));
-    }
+    crate::out::report(args.json, &report, || q2_text_report(&report))?;
     Ok(Outcome::Clean)
 }
 

@@ -219,11 +219,7 @@ pub(crate) fn run_folder(args: &Args, dir: &Path) -> anyhow::Result<Outcome> {
     write_pack(&out, &records)?;
     report.output = Some(out.display().to_string());
     report.total_seconds = t0.elapsed().as_secs_f64();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", pack_text(&report));
-    }
+    crate::out::report(args.json, &report, || pack_text(&report))?;
     Ok(if report.skipped.is_empty() { Outcome::Clean } else { Outcome::Finding })
 }
 

@@ -21,9 +21,7 @@ use crate::cli::Outcome;
 
 /// True when `path` is a file that starts like a Quake 3 BSP ([`q3::is_q3`]).
 pub fn starts_like_q3(path: &Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).is_ok() && q3::is_q3(&head)
+    super::vis::file_head(path).is_some_and(|h| q3::is_q3(&h))
 }
 
 /// What `sightline vis` reports for a Quake 3 `.bsp` (`--json` prints this).
@@ -101,11 +99,7 @@ pub fn run(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
         visibility_bytes: lump.len(),
         total_seconds: t0.elapsed().as_secs_f64(),
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", text_report(&report));
-    }
+    crate::out::report(args.json, &report, || text_report(&report))?;
     Ok(Outcome::Clean)
 }
 
