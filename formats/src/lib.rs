@@ -38,4 +38,4 @@ pub mod visfile;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
 pub use kind::FileKind;
-pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
+pub use level::{Contents, Face, FaceDraw, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
