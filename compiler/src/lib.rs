@@ -402,6 +402,8 @@ pub(crate) struct Prepared {
     pub seeds: Vec<Seed>,
     pub entities: String,
     pub textures: Vec<String>,
+    /// What faces are drawn with; [`csg::CsgFace::surface`] indexes it.
+    pub surfaces: Vec<csg::Surface>,
     pub stats: Stats,
     /// A prebuilt world tree (meshes build theirs from polygons).
     pub tree: Option<(bsp::Tree, Aabb)>,
@@ -498,7 +500,7 @@ fn compile_here(
         bounds: world_bounds,
         cluster_portals: collapsed.as_ref().map(|(g, o)| (g, o.as_slice())),
     };
-    let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures);
+    let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures, &prep.surfaces);
     progress.advance(1);
     clock.lap("emit", progress);
 

@@ -15,7 +15,7 @@ use sightline_formats::{Aabb, Contents, PlaneSet, Side, Winding};
 
 use crate::brush::Brush;
 use crate::bsp::{Tree, TreeNode};
-use crate::csg::CsgFace;
+use crate::csg::{CsgFace, Surface};
 use crate::{CompileError, OUTSIDE_MARGIN, Prepared, Progress, Stats};
 
 /// At most this many candidate planes are scored per node.
@@ -81,7 +81,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         .map(|(i, p)| CsgFace {
             plane: p.plane,
             winding: p.winding.clone(),
-            texture: 0,
+            surface: 0,
             brush: i as u32,
             contents: Contents::Solid,
         })
@@ -103,6 +103,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         seeds: Vec::new(),
         entities: "{\n\"classname\" \"worldspawn\"\n}\n".to_string(),
         textures: vec!["mesh".to_string()],
+        surfaces: vec![Surface { texture: 0, vectors: [[0.0; 4]; 2] }],
         stats,
         tree: Some((tree, bounds)),
         fill: false,
