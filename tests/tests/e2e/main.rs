@@ -13,6 +13,7 @@ mod mapgen;
 mod render_pixels;
 mod runtime_bench;
 mod runtime_compiled;
+mod runtime_draw;
 mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;
