@@ -279,27 +279,34 @@ impl PhsRows {
         self.rows.get_or_init(|| Self::compute(pvs)).decode(cluster, out);
     }
 
-    /// Quake's union: for every cluster, OR the rows of the clusters its row holds.
+    /// Quake's union: for every cluster, OR the rows of the clusters its row holds. Every row is
+    /// decoded once into a matrix of `clusters² / 8` bytes (Quake servers keep the PVS so), freed
+    /// when the compressed PHS rows are made.
     fn compute(pvs: &PvsRows) -> PvsRows {
         if !pvs.has_vis() {
             return pvs.clone();
         }
         let n = pvs.num_clusters;
-        let (mut row, mut other, mut acc) = (Bitset::default(), Bitset::default(), Bitset::default());
+        let mut row = Bitset::default();
+        let words = bits::words(n as usize);
+        let mut matrix = Vec::with_capacity(words * n as usize);
+        for c in 0..n {
+            pvs.decode(c, &mut row);
+            matrix.extend_from_slice(&row.words);
+        }
+        let mut acc = vec![0u64; words];
         let mut bytes = Vec::with_capacity(pvs.row_bytes + 8);
         let mut out =
             PvsRows { num_clusters: n, row_bytes: pvs.row_bytes, offsets: Vec::new(), data: Vec::new() };
-        for c in 0..n {
-            pvs.decode(c, &mut row);
-            acc.clone_from(&row);
-            for j in row.iter_ones() {
-                pvs.decode(j as u32, &mut other);
-                for (a, o) in acc.words.iter_mut().zip(&other.words) {
+        for own in matrix.chunks_exact(words.max(1)) {
+            acc.copy_from_slice(own);
+            for j in bits::ones(own) {
+                for (a, o) in acc.iter_mut().zip(matrix.get(j * words..(j + 1) * words).unwrap_or(&[])) {
                     *a |= o;
                 }
             }
             bytes.clear();
-            bytes.extend(acc.words.iter().flat_map(|w| w.to_le_bytes()));
+            bytes.extend(acc.iter().flat_map(|w| w.to_le_bytes()));
             bytes.truncate(pvs.row_bytes);
             out.offsets.push(out.data.len() as u32);
             rle::encode_row(&bytes, &mut out.data);

@@ -175,7 +175,8 @@ impl World {
     /// Decode the PHS row of `cluster` into `out`, as [`World::decode_pvs`] does for the PVS: bit
     /// `j` set means a sound in cluster `j` may be heard from `cluster`. Row `c` is the union of
     /// the PVS rows of every cluster in `c`'s PVS (Quake's `SV_CalcPHS`), computed once, on the
-    /// first call (a cost of about clusters × visible clusters × row words).
+    /// first call (about clusters × visible clusters × row words of work and a transient
+    /// `clusters² / 8`-byte matrix: 61 ms for the 3,669 clusters of LibreQuake's E1M1).
     pub fn decode_phs(&self, cluster: u32, out: &mut Bitset) {
         self.phs.decode(&self.rows, cluster, out);
     }
