@@ -19,13 +19,22 @@ use sightline_formats::{Contents, PlaneSet, Side, Winding};
 
 use crate::brush::{Brush, NO_TEXTURE};
 
+/// What a drawn side is drawn with (qbsp's texinfo): a texture and its projection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Surface {
+    /// Index into the level's textures.
+    pub texture: u32,
+    /// S and t texture vectors (see [`sightline_formats::map::TexAxes::vectors`]).
+    pub vectors: [[f32; 4]; 2],
+}
+
 /// A brush as CSG sees it.
 #[derive(Debug, Clone)]
 pub struct CsgBrush {
     /// The brush with its side windings.
     pub brush: Brush,
-    /// Texture index for each side of `brush.sides`, or [`NO_TEXTURE`] for sides never drawn.
-    pub textures: Vec<u32>,
+    /// [`Surface`] index for each side of `brush.sides`, or [`NO_TEXTURE`] for sides never drawn.
+    pub surfaces: Vec<u32>,
     /// Which model the brush belongs to: brushes only hide faces of their own model.
     pub model: u32,
     /// False for illusionary brushes: drawn, but they hide nothing.
@@ -39,8 +48,8 @@ pub struct CsgFace {
     pub plane: u32,
     /// Clockwise seen from the front.
     pub winding: Winding,
-    /// Texture index.
-    pub texture: u32,
+    /// Index of its [`Surface`].
+    pub surface: u32,
     /// Index of the brush it came from.
     pub brush: u32,
     /// Contents of that brush.
@@ -79,8 +88,8 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                 .map(|(bi, _)| bi)
                 .collect();
             for (si, side) in a.brush.sides.iter().enumerate() {
-                let texture = a.textures.get(si).copied().unwrap_or(NO_TEXTURE);
-                if texture == NO_TEXTURE {
+                let surface = a.surfaces.get(si).copied().unwrap_or(NO_TEXTURE);
+                if surface == NO_TEXTURE {
                     continue;
                 }
                 let mut pieces = vec![side.winding.clone()];
@@ -105,14 +114,14 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                     let inside = liquid.then(|| CsgFace {
                         plane: side.plane ^ 1,
                         winding: winding.reversed(),
-                        texture,
+                        surface,
                         brush: ai as u32,
                         contents: a.brush.contents,
                     });
                     out.push(CsgFace {
                         plane: side.plane,
                         winding,
-                        texture,
+                        surface,
                         brush: ai as u32,
                         contents: a.brush.contents,
                     });
@@ -171,7 +180,7 @@ mod tests {
 
     fn boxb(planes: &mut PlaneSet, lo: [f64; 3], hi: [f64; 3]) -> CsgBrush {
         let b = Brush::from_box(planes, &Aabb::new(DVec3::from(lo), DVec3::from(hi)), Contents::Solid);
-        CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0, hides: true }
+        CsgBrush { surfaces: vec![0; b.sides.len()], brush: b, model: 0, hides: true }
     }
 
     fn area(faces: &[CsgFace]) -> f64 {
@@ -225,7 +234,7 @@ mod proptests {
                     &Aabb::new(DVec3::from(lo.map(f64::from)), DVec3::from(hi.map(f64::from))),
                     Contents::Solid,
                 );
-                brushes.push(CsgBrush { textures: vec![0; b.sides.len()], brush: b, model: 0, hides: true });
+                brushes.push(CsgBrush { surfaces: vec![0; b.sides.len()], brush: b, model: 0, hides: true });
                 for x in lo[0]..hi[0] {
                     for y in lo[1]..hi[1] {
                         for z in lo[2]..hi[2] {

@@ -10,6 +10,9 @@
 //! - A face lies on its brush side's plane and is listed by every kept leaf it touches on its
 //!   front side (found by pushing the polygon down the tree, splitting with [`ON_EPSILON`]); a
 //!   face that touches no kept leaf borders only filled space and is dropped.
+//! - Every face gets its [`FaceDraw`]: its side's texture vectors (qbsp's texinfo, from the
+//!   `.map` side), flags 0, no light map (styles 255, offset -1); `texture_sizes` stays empty (a
+//!   `.map` does not size its textures).
 //! - Submodel trees follow the world's; their leaves have cluster -1 and list no faces.
 
 use std::collections::HashMap;
@@ -18,12 +21,12 @@ use rayon::prelude::*;
 use sightline_formats::geom::ON_EPSILON;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 use sightline_formats::{
-    Aabb, Contents, Face, Leaf, Level, LevelPlane, Model, Node, PlaneSet, Portal, Winding,
+    Aabb, Contents, Face, FaceDraw, Leaf, Level, LevelPlane, Model, Node, PlaneSet, Portal, Winding,
 };
 
 use crate::bsp::{Tree, TreeNode};
 use crate::contents::sight_passes;
-use crate::csg::CsgFace;
+use crate::csg::{CsgFace, Surface};
 use crate::portals::Portals;
 
 /// The world part handed to [`emit`].
@@ -68,8 +71,9 @@ fn f3(v: glam::DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-struct Out {
+struct Out<'a> {
     level: Level,
+    surfaces: &'a [Surface],
 }
 
 /// Build the level.
@@ -79,8 +83,9 @@ pub fn emit(
     submodels: &[Submodel],
     entities: String,
     textures: Vec<String>,
+    surfaces: &[Surface],
 ) -> Emitted {
-    let mut out = Out { level: Level { entities, textures, ..Level::default() } };
+    let mut out = Out { level: Level { entities, textures, ..Level::default() }, surfaces };
     out.level.planes =
         planes.planes().iter().map(|p| LevelPlane { normal: f3(p.normal), dist: p.dist as f32 }).collect();
 
@@ -206,7 +211,7 @@ pub fn emit(
     Emitted { level: out.level, prt }
 }
 
-impl Out {
+impl Out<'_> {
     fn push_winding(&mut self, w: &Winding) -> u32 {
         let first = self.level.vertices.len() as u32;
         self.level.vertices.extend(w.points.iter().map(|&p| f3(p)));
@@ -215,12 +220,15 @@ impl Out {
 
     fn push_face(&mut self, f: &CsgFace) -> u32 {
         let first_vertex = self.push_winding(&f.winding);
+        let surface = self.surfaces.get(f.surface as usize);
         self.level.faces.push(Face {
             plane: f.plane,
             first_vertex,
             num_vertices: f.winding.len() as u32,
-            texture: f.texture,
+            texture: surface.map_or(0, |s| s.texture),
         });
+        let [s, t] = surface.map_or([[0.0; 4]; 2], |s| s.vectors);
+        self.level.face_draw.push(FaceDraw { s, t, ..FaceDraw::NONE });
         self.level.faces.len() as u32 - 1
     }
 }

@@ -405,6 +405,8 @@ pub(crate) struct Prepared {
     pub seeds: Vec<Seed>,
     pub entities: String,
     pub textures: Vec<String>,
+    /// What faces are drawn with; [`csg::CsgFace::surface`] indexes it.
+    pub surfaces: Vec<csg::Surface>,
     pub stats: Stats,
     /// A mesh's prebuilt world tree (maps build theirs from brushes after loading).
     pub mesh: Option<mesh::MeshTree>,
@@ -512,7 +514,7 @@ fn compile_here(
         bounds: world_bounds,
         cluster_portals: collapsed.as_ref().map(|(g, o)| (g, o.as_slice())),
     };
-    let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures);
+    let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures, &prep.surfaces);
     progress.advance(1);
     clock.lap("emit", progress);
 

@@ -11,7 +11,7 @@ use sightline_formats::{Contents, PlaneSet};
 
 use crate::brush::{Brush, BrushProblem, MAX_BRUSH_SIDES, NO_TEXTURE, SideSpec};
 use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role};
-use crate::csg::{CsgBrush, clip_faces};
+use crate::csg::{CsgBrush, Surface, clip_faces};
 use crate::outside::Seed;
 use crate::{CompileError, Prepared, Progress, Source, Stats};
 
@@ -63,6 +63,8 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
     let mut planes = PlaneSet::new();
     let mut textures: Vec<String> = Vec::new();
     let mut texture_index: HashMap<String, u32> = HashMap::new();
+    let mut surfaces: Vec<Surface> = Vec::new();
+    let mut surface_index: HashMap<(u32, [u32; 8]), u32> = HashMap::new();
     let mut world: Vec<CsgBrush> = Vec::new();
     let mut structural: Vec<Brush> = Vec::new();
     // For each entry of `world`, its brush in `structural` (illusionary brushes have none).
@@ -155,19 +157,26 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                 ));
                 continue;
             }
-            let mut side_textures = vec![NO_TEXTURE; brush.sides.len()];
+            let mut side_surfaces = vec![NO_TEXTURE; brush.sides.len()];
             for (spec_i, s) in b.sides.iter().enumerate() {
                 let Some(Some(side_i)) = side_map.get(spec_i) else { continue };
                 if kind == BrushKind::Hint || !TextureKind::of(&s.texture).draws() {
                     continue;
                 }
                 let next = textures.len() as u32;
-                let t = *texture_index.entry(s.texture.clone()).or_insert_with(|| {
+                let texture = *texture_index.entry(s.texture.clone()).or_insert_with(|| {
                     textures.push(s.texture.clone());
                     next
                 });
-                if let Some(slot) = side_textures.get_mut(*side_i) {
-                    *slot = t;
+                let vectors = s.axes.vectors(s.plane.normal).map(|v| v.map(|c| c as f32));
+                let key = (texture, std::array::from_fn(|i| vectors[i / 4][i % 4].to_bits()));
+                let next = surfaces.len() as u32;
+                let surface = *surface_index.entry(key).or_insert_with(|| {
+                    surfaces.push(Surface { texture, vectors });
+                    next
+                });
+                if let Some(slot) = side_surfaces.get_mut(*side_i) {
+                    *slot = surface;
                 }
             }
             match role {
@@ -182,7 +191,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                     }
                     tree_of_world.push(Some(structural.len()));
                     structural.push(tree_brush);
-                    world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: true });
+                    world.push(CsgBrush { brush, surfaces: side_surfaces, model: 0, hides: true });
                 }
                 EntityRole::Detail => {
                     stats.detail_brushes += 1;
@@ -190,20 +199,20 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
                     if kind != BrushKind::Hint {
                         tree_of_world.push(Some(structural.len()));
                         structural.push(Brush { detail: true, ..brush.clone() });
-                        world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: true });
+                        world.push(CsgBrush { brush, surfaces: side_surfaces, model: 0, hides: true });
                     }
                 }
                 EntityRole::Illusionary => {
                     stats.detail_brushes += 1;
                     if kind != BrushKind::Hint {
                         tree_of_world.push(None);
-                        world.push(CsgBrush { brush, textures: side_textures, model: 0, hides: false });
+                        world.push(CsgBrush { brush, surfaces: side_surfaces, model: 0, hides: false });
                     }
                 }
                 EntityRole::Submodel | EntityRole::Point => {
                     let m = submodels.len();
                     if let Some(list) = submodels.last_mut() {
-                        list.push(CsgBrush { brush, textures: side_textures, model: m as u32, hides: true });
+                        list.push(CsgBrush { brush, surfaces: side_surfaces, model: m as u32, hides: true });
                     }
                 }
             }
@@ -240,6 +249,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         seeds,
         entities,
         textures,
+        surfaces,
         stats,
         mesh: None,
         fill: true,

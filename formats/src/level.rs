@@ -123,6 +123,34 @@ pub struct Face {
     pub texture: u32,
 }
 
+/// How a face is textured and lit: Quake's texinfo projection and the face's light-map fields.
+///
+/// Texture coordinates in texels of a point `p` (world units) on the face are
+/// `s = s[0..3] · p + s[3]` and `t = t[0..3] · p + t[3]`; divide by the texture's size
+/// ([`Level::texture_sizes`]) for normalised coordinates. Quake's light map of the face starts at
+/// `floor(min s / 16)` (and `t`) over its corners, as in Quake's `CalcSurfaceExtents`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct FaceDraw {
+    /// S axis (texels per world unit along x, y, z) and offset (texels).
+    pub s: [f32; 4],
+    /// T axis and offset, as `s`.
+    pub t: [f32; 4],
+    /// Quake texinfo flags (bit 0 "special": sky or liquid, warped and not light-mapped).
+    pub flags: u32,
+    /// Light styles of the face's light maps; 255 ends the list (Quake's `styles`).
+    pub styles: [u8; 4],
+    /// Byte offset of the face's first light map in the source BSP's lighting lump; -1 for none
+    /// (a level compiled by Sightline has no light maps).
+    pub light_offset: i32,
+}
+
+impl FaceDraw {
+    /// No texture projection and no light map (every axis zero).
+    pub const NONE: FaceDraw =
+        FaceDraw { s: [0.0; 4], t: [0.0; 4], flags: 0, styles: [255; 4], light_offset: -1 };
+}
+
 /// An opening between two non-solid leaves.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -162,6 +190,9 @@ pub struct Level {
     pub entities: String,
     /// Texture names; faces refer to them by index.
     pub textures: Vec<String>,
+    /// Texture sizes in texels (`[width, height]`, `[0, 0]` when unknown), one per texture, or
+    /// empty when the source had none (a `.map` names textures but does not size them).
+    pub texture_sizes: Vec<[u32; 2]>,
     /// Planes.
     pub planes: Vec<LevelPlane>,
     /// Interior nodes; the world's root is `models[0].head_node`.
@@ -172,6 +203,9 @@ pub struct Level {
     pub leaf_faces: Vec<u32>,
     /// Faces.
     pub faces: Vec<Face>,
+    /// Texture projection and light map of each face (`face_draw[i]` belongs to `faces[i]`), or
+    /// empty when the source had none (levels written before this field existed).
+    pub face_draw: Vec<FaceDraw>,
     /// Corners of faces and portals.
     pub vertices: Vec<[f32; 3]>,
     /// Portals: openings sight passes through, between non-solid leaves (sky only to sky).

@@ -40,4 +40,4 @@ pub mod vispatch;
 
 pub use geom::{Aabb, Plane, PlaneKind, PlaneSet, Side, Split, Winding};
 pub use kind::FileKind;
-pub use level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
+pub use level::{Contents, Face, FaceDraw, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};

@@ -61,6 +61,63 @@ pub enum TexAxes {
     },
 }
 
+/// Quake's six texture base axes (qbsp's `baseaxis`): a face normal, then the s and t axes a
+/// Standard side projects onto, for floor, ceiling, west, east, south and north walls.
+const BASE_AXES: [[[f64; 3]; 3]; 6] = [
+    [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]],
+    [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]],
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]],
+    [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]],
+    [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+    [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+];
+
+impl TexAxes {
+    /// The s and t texture vectors of a side whose plane normal (out of the brush) is `normal`,
+    /// as Quake's qbsp computes a texinfo: `s = v[0][0..3] · p + v[0][3]` texels for a point
+    /// `p`, likewise `t` with `v[1]`. Standard sides project onto the base axis closest to the
+    /// normal (the first of floor, ceiling, west, east, south, north on ties), rotated by
+    /// `rotation` degrees and divided by the scales; Valve 220 sides give their axes directly.
+    /// A zero scale counts as 1, as in qbsp.
+    pub fn vectors(&self, normal: DVec3) -> [[f64; 4]; 2] {
+        let unit = |s: f64| if s == 0.0 { 1.0 } else { s };
+        match *self {
+            TexAxes::Valve { u, v, scale, .. } => {
+                let axis = |a: [f64; 4], s: f64| [a[0] / unit(s), a[1] / unit(s), a[2] / unit(s), a[3]];
+                [axis(u, scale[0]), axis(v, scale[1])]
+            }
+            TexAxes::Standard { offset, rotation, scale } => {
+                let mut best = 0;
+                let mut best_dot = 0.0;
+                for (i, base) in BASE_AXES.iter().enumerate() {
+                    let d = normal.dot(DVec3::from(base[0]));
+                    if d > best_dot {
+                        best_dot = d;
+                        best = i;
+                    }
+                }
+                let mut vecs = [BASE_AXES[best][1], BASE_AXES[best][2]];
+                // Exact quarter turns, as qbsp, so axial textures stay exact.
+                let quarter =
+                    [(0.0, (0.0, 1.0)), (90.0, (1.0, 0.0)), (180.0, (0.0, -1.0)), (270.0, (-1.0, 0.0))];
+                let (sinv, cosv) = quarter
+                    .iter()
+                    .find(|(r, _)| *r == rotation)
+                    .map_or_else(|| rotation.to_radians().sin_cos(), |&(_, sc)| sc);
+                let first_nonzero = |v: [f64; 3]| v.iter().position(|&c| c != 0.0).unwrap_or(2);
+                let (sv, tv) = (first_nonzero(vecs[0]), first_nonzero(vecs[1]));
+                for v in &mut vecs {
+                    let (ns, nt) = (cosv * v[sv] - sinv * v[tv], sinv * v[sv] + cosv * v[tv]);
+                    v[sv] = ns;
+                    v[tv] = nt;
+                }
+                let axis = |v: [f64; 3], s: f64, o: f64| [v[0] / unit(s), v[1] / unit(s), v[2] / unit(s), o];
+                [axis(vecs[0], scale[0], offset[0]), axis(vecs[1], scale[1], offset[1])]
+            }
+        }
+    }
+}
+
 /// One side of a brush.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BrushSide {
@@ -512,6 +569,28 @@ mod tests {
 
     fn err(text: &str) -> MapError {
         parse(text, "t.map").expect_err("should fail")
+    }
+
+    #[test]
+    fn texture_vectors_follow_qbsp() {
+        let std = |rotation, scale: [f64; 2]| TexAxes::Standard { offset: [8.0, -4.0], rotation, scale };
+        let up = DVec3::Z;
+        // A floor projects onto x and -y; offsets pass through.
+        assert_eq!(std(0.0, [1.0, 1.0]).vectors(up), [[1.0, 0.0, 0.0, 8.0], [0.0, -1.0, 0.0, -4.0]]);
+        // Rotating by 90 degrees swaps the axes as qbsp does; scales divide; zero scale is 1.
+        assert_eq!(std(90.0, [2.0, 0.0]).vectors(up), [[0.0, 0.5, 0.0, 8.0], [1.0, 0.0, 0.0, -4.0]]);
+        // A wall facing -y (north) projects onto x and -z; 45 degrees mixes them.
+        let v = std(45.0, [1.0, 1.0]).vectors(-DVec3::Y);
+        let h = 0.5f64.sqrt();
+        assert!((v[0][0] - h).abs() < 1e-12 && (v[0][2] - h).abs() < 1e-12, "{v:?}");
+        // Valve 220 gives the axes; scales divide them, offsets are kept.
+        let valve = TexAxes::Valve {
+            u: [0.0, 1.0, 0.0, 3.0],
+            v: [0.0, 0.0, -1.0, 5.0],
+            rotation: 0.0,
+            scale: [0.5, 2.0],
+        };
+        assert_eq!(valve.vectors(up), [[0.0, 2.0, 0.0, 3.0], [0.0, 0.0, -0.5, 5.0]]);
     }
 
     #[test]

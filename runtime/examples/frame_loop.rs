@@ -1,6 +1,7 @@
-//! An engine's frame loop with sightline-runtime: load once, then every frame cull with a reused
-//! scratch and output lists, and draw front to back. Run with a level or BSP path, e.g.
-//! `cargo run --release -p sightline-runtime --example frame_loop -- ../shared/maps/ericw/e1m1.vis.bsp`
+//! An engine's frame loop with sightline-runtime: load once, then every frame move the camera
+//! (tracing so it never walks into solid), cull with a reused scratch and output lists, drop back
+//! faces, and draw front to back with the draw data. Run with a level or BSP path, e.g.
+//! `cargo run --release -p sightline-runtime --features testkit --example frame_loop -- ../shared/maps/ericw/e1m1.vis.bsp`
 //! (without an argument it builds a small grid level in memory).
 
 use std::time::Instant;
@@ -9,44 +10,84 @@ use glam::Vec3;
 use sightline_runtime::backend;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, synth};
 
+/// The `origin` of the first `info_player_start` in Quake entity text, if any. (Entity text is
+/// `{ "key" "value" ... }` blocks; an engine has its own entity parser.)
+fn player_start(entities: &str) -> Option<Vec3> {
+    entities.split('}').find(|block| block.contains("\"info_player_start\"")).and_then(|block| {
+        let value = block.split("\"origin\"").nth(1)?.split('"').nth(1)?;
+        let v: Vec<f32> = value.split_whitespace().filter_map(|c| c.parse().ok()).collect();
+        (v.len() == 3).then(|| Vec3::new(v[0], v[1], v[2]))
+    })
+}
+
+/// The centre of the largest open leaf that is not sky: a start for levels without entities.
+fn largest_open_leaf(world: &World) -> Option<Vec3> {
+    world
+        .open_leaves()
+        .iter()
+        .filter(|&&l| world.leaf_contents(l) != Some(sightline_formats::level::Contents::Sky))
+        .filter_map(|&l| world.leaf_bounds(l))
+        .max_by(|a, b| a.extent.element_product().total_cmp(&b.extent.element_product()))
+        .map(|b| Vec3::from(b.center))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Load and validate once; a World is immutable and can be shared between threads (Arc).
     let world = match std::env::args().nth(1) {
         Some(path) => load::load_path(path.as_ref())?,
-        None => World::new(&synth::grid_level([8, 8, 2], 64.0, true, |x, y, _| x % 3 == 1 && y % 3 == 1))?,
+        // Pillars inside a ring of solid cells (the walls the camera turns at).
+        None => World::new(&synth::grid_level([10, 10, 2], 64.0, true, |x, y, _| {
+            x == 0 || y == 0 || x == 9 || y == 9 || (x % 3 == 1 && y % 3 == 1)
+        }))?,
     };
     // Per-view state, created once: no allocation happens inside the loop.
     let mut scratch = Scratch::new(&world);
     let mut visible = Visible::for_world(&world);
     let pvs = backend::by_name("pvs").ok_or("no pvs backend")?;
+    let draw = world.draw();
 
-    // A camera walking a circle around a point in the first open leaf.
-    let start = world.open_leaves().first().and_then(|&l| world.leaf_bounds(l)).ok_or("no open leaf")?;
-    let centre = Vec3::from(start.center);
+    let mut position =
+        player_start(draw.entities()).or_else(|| largest_open_leaf(&world)).ok_or("no open leaf")?;
+    println!("start at {position:?} (leaf {})", world.leaf_at(position));
+    let (mut yaw, mut blocked, step) = (0.0f32, 0usize, 8.0f32);
     let (mut drawn_faces, t0) = (0usize, Instant::now());
     for frame in 0..600 {
-        let angle = frame as f32 * 0.6;
-        let offset =
-            Vec3::new(angle.to_radians().cos(), angle.to_radians().sin(), 0.0) * start.extent.x * 0.5;
-        let camera = Camera::quake(centre + offset, angle, 0.0);
-
-        // Movement: never walk into solid.
-        if let Some(hit) = world.trace(centre, camera.position) {
-            println!("frame {frame}: blocked at {:?}", hit.point);
+        // Movement: walk forward; when a wall is near, turn and try again next frame.
+        let forward = Vec3::new(yaw.to_radians().cos(), yaw.to_radians().sin(), 0.0);
+        let ahead = position + forward * (step * 4.0);
+        if world.trace(position, ahead).is_some() {
+            blocked += 1;
+            yaw += 67.0;
+        } else {
+            position += forward * step;
         }
-        // Culling: the eye cluster's PVS (kept as a tree since load), then the frustum walk.
+        let camera = Camera::quake(position, yaw, 0.0);
+
+        // Culling: the eye cluster's PVS (kept as a tree since load), then the frustum walk, then
+        // the faces turned away from the eye.
         pvs.cull(&world, &camera.view(), &mut scratch, &mut visible);
-        // Drawing: leaves and their faces arrive nearest first (good for early-z).
-        drawn_faces += visible.faces.len(); // submit `visible.faces` to the GPU here
+        world.cull_back_faces(position, &mut visible.faces);
+        // Drawing: faces arrive nearest first (good for early-z); each has its corners, texture
+        // and texture axes in `draw`.
+        for &f in &visible.faces {
+            if let Some(face) = draw.face(f) {
+                drawn_faces += usize::from(face.vertices.len() >= 3); // submit to the GPU here
+            }
+        }
         if frame % 200 == 0 {
+            let first =
+                visible.faces.first().and_then(|&f| draw.face(f)).and_then(|f| draw.texture_name(f.texture));
             println!(
-                "frame {frame}: {} leaves, {} faces, {:?}",
+                "frame {frame}: at {position:?}, {} leaves, {} faces (nearest textured {first:?}), {:?}",
                 visible.leaves.len(),
                 visible.faces.len(),
                 scratch.stats
             );
         }
     }
-    println!("600 frames in {:?}, {drawn_faces} faces submitted", t0.elapsed());
+    println!(
+        "600 frames in {:?}, {drawn_faces} faces submitted, {blocked} frames turned at a wall",
+        t0.elapsed()
+    );
     Ok(())
 }

@@ -19,15 +19,17 @@
 // Layers, bottom up (a module imports only from layers below it):
 // 1. `error`, `camera`: no crate imports.
 // 2. `tree` (the level's validated tables), `gvs_cells` (the level's GVS cells).
-// 3. `locate`, `layout` (built from `tree`); then `pvs` (rows, per-cluster trees over `layout`).
+// 3. `locate`, `layout`, `draw` (built from `tree`); then `pvs` (rows, PHS, per-cluster trees
+//    over `layout`).
 // 4. `world`: owns all of the above; knows no query module and no backend.
-// 5. `scratch`, `trace`, `load`; then `walk`; then `backend::*`; then `check`, `poses`, `synth`
+// 5. `scratch`, `trace`, `load`, `query`; then `walk`; then `backend::*`; then `check`, `poses`, `synth`
 //    (feature `testkit`) and `ffi` (feature `ffi`).
 
 pub mod backend;
 pub mod camera;
 #[cfg(any(test, feature = "testkit"))]
 pub mod check;
+pub mod draw;
 pub mod error;
 #[cfg(feature = "ffi")]
 #[allow(unsafe_code)]
@@ -40,6 +42,7 @@ pub mod phs;
 #[cfg(any(test, feature = "testkit"))]
 pub mod poses;
 pub mod pvs;
+pub mod query;
 pub mod scratch;
 #[cfg(any(test, feature = "testkit"))]
 pub mod synth;
@@ -49,6 +52,7 @@ pub mod walk;
 pub mod world;
 
 pub use camera::{Camera, ClipDepth, Frustum, View};
+pub use draw::{DrawData, FaceView, Model};
 pub use error::{GvsError, LoadError};
 pub use gvs_cells::GvsCells;
 pub use pvs::Bitset;

@@ -261,6 +261,67 @@ impl PvsRows {
     }
 }
 
+/// The PHS (potentially hearable set) of a Quake 1 level: row `c` is the union of the PVS rows of
+/// every cluster in `c`'s PVS (Quake's `SV_CalcPHS`), and `c`'s own row, so anything a cluster could hear is in it.
+/// Computed on first use (clients that never ask pay nothing) and kept compressed like the PVS.
+/// A file that carries its own PHS (Quake 2's visibility lump) gives its rows instead: set the
+/// lock from them at load ([`PhsRows::stored`]).
+#[derive(Debug, Default)]
+pub(crate) struct PhsRows {
+    rows: std::sync::OnceLock<PvsRows>,
+}
+
+impl PhsRows {
+    /// Rows a level stored for itself; `None` computes them from the PVS on first use.
+    pub fn stored(rows: Option<PvsRows>) -> Self {
+        let lock = std::sync::OnceLock::new();
+        if let Some(rows) = rows {
+            let _ = lock.set(rows);
+        }
+        Self { rows: lock }
+    }
+
+    /// Decode the PHS row of `cluster` into `out`, as [`PvsRows::decode`] does for the PVS.
+    pub fn decode(&self, pvs: &PvsRows, cluster: u32, out: &mut Bitset) {
+        self.rows.get_or_init(|| Self::compute(pvs)).decode(cluster, out);
+    }
+
+    /// Quake's union: for every cluster, OR the rows of the clusters its row holds. Every row is
+    /// decoded once into a matrix of `clusters² / 8` bytes (Quake servers keep the PVS so), freed
+    /// when the compressed PHS rows are made.
+    fn compute(pvs: &PvsRows) -> PvsRows {
+        if !pvs.has_vis() {
+            return pvs.clone();
+        }
+        let n = pvs.num_clusters;
+        let mut row = Bitset::default();
+        let words = bits::words(n as usize);
+        let mut matrix = Vec::with_capacity(words * n as usize);
+        for c in 0..n {
+            pvs.decode(c, &mut row);
+            matrix.extend_from_slice(&row.words);
+        }
+        let mut acc = vec![0u64; words];
+        let mut bytes = Vec::with_capacity(pvs.row_bytes + 8);
+        let mut out =
+            PvsRows { num_clusters: n, row_bytes: pvs.row_bytes, offsets: Vec::new(), data: Vec::new() };
+        for own in matrix.chunks_exact(words.max(1)) {
+            acc.copy_from_slice(own);
+            for j in bits::ones(own) {
+                for (a, o) in acc.iter_mut().zip(matrix.get(j * words..(j + 1) * words).unwrap_or(&[])) {
+                    *a |= o;
+                }
+            }
+            bytes.clear();
+            bytes.extend(acc.iter().flat_map(|w| w.to_le_bytes()));
+            bytes.truncate(pvs.row_bytes);
+            out.offsets.push(out.data.len() as u32);
+            rle::encode_row(&bytes, &mut out.data);
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

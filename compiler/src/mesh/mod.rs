@@ -26,7 +26,7 @@ use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
 
 use crate::brush::Brush;
 use crate::bsp::{Tree, TreeNode};
-use crate::csg::CsgFace;
+use crate::csg::{CsgFace, Surface};
 use crate::{CompileError, OUTSIDE_MARGIN, Prepared, Progress, Stats};
 
 pub mod edges;
@@ -103,7 +103,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         let face = |plane: u32, winding: Winding| CsgFace {
             plane,
             winding,
-            texture: 0,
+            surface: 0,
             brush: i as u32,
             contents: Contents::Solid,
         };
@@ -139,6 +139,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         seeds: Vec::new(),
         entities: "{\n\"classname\" \"worldspawn\"\n}\n".to_string(),
         textures: vec!["mesh".to_string()],
+        surfaces: vec![Surface { texture: 0, vectors: [[0.0; 4]; 2] }],
         stats,
         mesh: Some(MeshTree { tree, volume: volume_box, world, cover }),
         fill: false,

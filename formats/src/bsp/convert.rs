@@ -2,7 +2,7 @@
 
 use super::Bsp;
 use crate::bits;
-use crate::level::{Contents, Face, Leaf, Level, LevelPlane, Model, Node};
+use crate::level::{Contents, Face, FaceDraw, Leaf, Level, LevelPlane, Model, Node};
 use crate::rle;
 use std::collections::HashMap;
 
@@ -21,6 +21,9 @@ use std::collections::HashMap;
 ///   every level face is seen from its plane's front. Texture names come from the miptex
 ///   directory; a texture missing from the file (offset -1) has an empty name.
 /// - Unknown contents codes (none of Quake's six) become [`Contents::Empty`] (open).
+/// - Face `i` of the level is face `i` of the BSP. `face_draw[i]` holds its texinfo's s/t axes
+///   and flags (zero axes when one is not finite) and its light styles and lighting offset;
+///   `texture_sizes` the miptex sizes.
 /// - `leaf_faces` are the BSP's marksurfaces; the level has no portals and no GVS cells.
 pub fn to_level(bsp: &Bsp) -> Level {
     let textures: Vec<String> =
@@ -69,9 +72,25 @@ pub fn to_level(bsp: &Bsp) -> Level {
             num_faces: m.num_faces,
         })
         .collect();
+    let face_draw = bsp
+        .faces
+        .iter()
+        .map(|f| {
+            let info = &bsp.texinfo[f.texinfo as usize];
+            // Texinfo is not checked by `read` (vis never uses it): a non-finite axis becomes
+            // "no projection" rather than a level that fails validation.
+            let finite = info.vecs.as_flattened().iter().all(|v| v.is_finite());
+            let [s, t] = if finite { info.vecs } else { [[0.0; 4]; 2] };
+            FaceDraw { s, t, flags: info.flags as u32, styles: f.styles, light_offset: f.light_offset }
+        })
+        .collect();
+    let texture_sizes =
+        bsp.textures.iter().map(|t| t.as_ref().map_or([0, 0], |t| [t.width, t.height])).collect();
     Level {
         entities: bsp.entities.clone(),
         textures,
+        texture_sizes,
+        face_draw,
         planes,
         nodes,
         leaves,

@@ -474,6 +474,7 @@ pub fn to_level(bsp: &Q3Bsp) -> Level {
         pvs_data,
         gvs_cells: Vec::new(),
         gvs_faces: Vec::new(),
+        ..Level::default()
     }
 }
 

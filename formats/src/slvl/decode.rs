@@ -3,7 +3,7 @@
 
 use super::{LumpKind, SlvlError};
 use crate::le::Rec;
-use crate::level::{Contents, Face, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
+use crate::level::{Contents, Face, FaceDraw, GvsCell, Leaf, Level, LevelPlane, Model, Node, Portal};
 
 fn invalid(kind: LumpKind, index: usize, offset: usize, detail: impl Into<String>) -> SlvlError {
     SlvlError::Invalid { lump: kind.name(), index, offset: offset as u64, detail: detail.into() }
@@ -132,6 +132,20 @@ pub(super) fn lump_into(level: &mut Level, kind: LumpKind, data: &[u8]) -> Resul
                 .collect();
         }
         LumpKind::GvsFaces => level.gvs_faces = records(kind, data)?.map(|(_, mut r)| r.u32()).collect(),
+        LumpKind::FaceDraw => {
+            level.face_draw = records(kind, data)?
+                .map(|(_, mut r)| FaceDraw {
+                    s: [r.f32(), r.f32(), r.f32(), r.f32()],
+                    t: [r.f32(), r.f32(), r.f32(), r.f32()],
+                    flags: r.u32(),
+                    styles: r.take(),
+                    light_offset: r.i32(),
+                })
+                .collect();
+        }
+        LumpKind::TextureSizes => {
+            level.texture_sizes = records(kind, data)?.map(|(_, mut r)| [r.u32(), r.u32()]).collect();
+        }
     }
     Ok(())
 }

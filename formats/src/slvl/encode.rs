@@ -117,6 +117,15 @@ pub(super) fn lump_bytes(level: &Level, kind: LumpKind) -> Vec<u8> {
             }
         }
         LumpKind::GvsFaces => level.gvs_faces.iter().for_each(|&f| p.u32(f)),
+        LumpKind::FaceDraw => {
+            for d in &level.face_draw {
+                d.s.into_iter().chain(d.t).for_each(|v| p.f32(v));
+                p.u32(d.flags);
+                p.0.extend_from_slice(&d.styles);
+                p.i32(d.light_offset);
+            }
+        }
+        LumpKind::TextureSizes => level.texture_sizes.iter().flatten().for_each(|&v| p.u32(v)),
     }
     p.0
 }

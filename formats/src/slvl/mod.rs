@@ -71,11 +71,15 @@ pub enum LumpKind {
     GvsCells = 14,
     /// [`Level::gvs_faces`]: `u32` each.
     GvsFaces = 15,
+    /// [`Level::face_draw`]: 44-byte records (optional: absent in older files).
+    FaceDraw = 16,
+    /// [`Level::texture_sizes`]: 8-byte records (optional: absent in older files).
+    TextureSizes = 17,
 }
 
 impl LumpKind {
     /// Every kind, in the order [`write()`] stores them.
-    pub const ALL: [LumpKind; 15] = [
+    pub const ALL: [LumpKind; 17] = [
         Self::Entities,
         Self::Textures,
         Self::Planes,
@@ -91,6 +95,8 @@ impl LumpKind {
         Self::PvsData,
         Self::GvsCells,
         Self::GvsFaces,
+        Self::FaceDraw,
+        Self::TextureSizes,
     ];
 
     /// The kind with this code, if this version knows it.
@@ -121,6 +127,8 @@ impl LumpKind {
             Self::PvsData => "pvs_data",
             Self::GvsCells => "gvs_cells",
             Self::GvsFaces => "gvs_faces",
+            Self::FaceDraw => "face_draw",
+            Self::TextureSizes => "texture_sizes",
         }
     }
 
@@ -136,6 +144,8 @@ impl LumpKind {
             Self::Vertices => 12,
             Self::Portals => 20,
             Self::GvsCells => 32,
+            Self::FaceDraw => 44,
+            Self::TextureSizes => 8,
         }
     }
 }
@@ -404,7 +414,7 @@ fn lump_data<'a>(bytes: &'a [u8], entry: &DirEntry, kind: LumpKind) -> Result<Co
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::level::{Contents, Face, GvsCell, Leaf, LevelPlane, Model, Node, Portal};
+    use crate::level::{Contents, Face, FaceDraw, GvsCell, Leaf, LevelPlane, Model, Node, Portal};
     use proptest::prelude::*;
 
     /// Random fields on the project's generator.
@@ -451,6 +461,18 @@ mod tests {
             level.faces.push(Face { plane: r.below(np) as u32, first_vertex, num_vertices, texture });
         }
         let nf = level.faces.len();
+        if r.below(2) == 0 {
+            level.face_draw = (0..nf)
+                .map(|_| FaceDraw {
+                    s: [r.f(), r.f(), r.f(), r.f()],
+                    t: [r.f(), r.f(), r.f(), r.f()],
+                    flags: r.below(3) as u32,
+                    styles: [r.below(256) as u8, 255, 255, 255],
+                    light_offset: r.below(1000) as i32 - 1,
+                })
+                .collect();
+            level.texture_sizes = (0..level.textures.len()).map(|_| [r.below(512) as u32, 64]).collect();
+        }
         level.leaf_faces = (0..r.below(30)).map(|_| r.below(nf) as u32).collect();
         let num_leaves = 2 + r.below(10);
         level.num_clusters = r.below(num_leaves) as u32;
@@ -578,6 +600,28 @@ mod tests {
         // ...and a second planes lump is an error.
         let dup = rewrite_directory(&bytes, |e| e[0].kind = LumpKind::Planes.code());
         assert!(matches!(read(&dup), Err(SlvlError::Directory { .. })));
+    }
+
+    #[test]
+    fn files_without_draw_lumps_read_without_draw_data() {
+        let level = (0..).map(random_level).find(|l| !l.face_draw.is_empty()).unwrap();
+        let bytes = write(&level, &WriteOptions::default());
+        let old = rewrite_directory(&bytes, |e| {
+            e.retain(|e| ![LumpKind::FaceDraw.code(), LumpKind::TextureSizes.code()].contains(&e.kind))
+        });
+        let mut expected = level.clone();
+        expected.face_draw.clear();
+        expected.texture_sizes.clear();
+        assert_eq!(read(&old), Ok(expected));
+        let mut short = level.clone();
+        short.face_draw.pop();
+        assert!(matches!(validate(&short), Err(SlvlError::Invalid { lump: "face_draw", .. })));
+        let mut sizes = level.clone();
+        sizes.texture_sizes.push([1, 1]);
+        assert!(matches!(validate(&sizes), Err(SlvlError::Invalid { lump: "texture_sizes", .. })));
+        let mut nan = level;
+        nan.face_draw[0].t[3] = f32::NAN;
+        assert!(matches!(validate(&nan), Err(SlvlError::Invalid { lump: "face_draw", index: 0, .. })));
     }
 
     #[test]

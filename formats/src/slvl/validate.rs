@@ -72,7 +72,8 @@ impl Check {
 /// range and a valid plane and texture; portals between existing leaves with a valid plane and at
 /// least 3 corners; model head nodes and face ranges; `num_clusters` at most the leaf count;
 /// `pvs_offsets` empty or one per cluster, each pointing at a row that decodes; GVS cell face
-/// ranges and GVS face indices.
+/// ranges and GVS face indices; `face_draw` and `texture_sizes` empty or one per face (texture),
+/// texture axes finite.
 pub fn validate(level: &Level) -> Result<(), SlvlError> {
     let (planes, nodes, leaves) = (level.planes.len(), level.nodes.len(), level.leaves.len());
     let faces = level.faces.len();
@@ -150,6 +151,23 @@ pub fn validate(level: &Level) -> Result<(), SlvlError> {
     }
     for (i, &f) in level.gvs_faces.iter().enumerate() {
         Check::at(LumpKind::GvsFaces, i).index("face", f, faces, "faces")?;
+    }
+    validate_draw(level)
+}
+
+/// `face_draw` and `texture_sizes`: each empty or one record per face (texture); axes finite.
+fn validate_draw(level: &Level) -> Result<(), SlvlError> {
+    let (faces, textures) = (level.faces.len(), level.textures.len());
+    if !level.face_draw.is_empty() && level.face_draw.len() != faces {
+        return Err(Check::at(LumpKind::FaceDraw, 0)
+            .fail(format!("{} records for {faces} faces", level.face_draw.len())));
+    }
+    for (i, d) in level.face_draw.iter().enumerate() {
+        Check::at(LumpKind::FaceDraw, i).finite("texture axis", d.s.iter().chain(&d.t))?;
+    }
+    if !level.texture_sizes.is_empty() && level.texture_sizes.len() != textures {
+        return Err(Check::at(LumpKind::TextureSizes, 0)
+            .fail(format!("{} records for {textures} textures", level.texture_sizes.len())));
     }
     Ok(())
 }

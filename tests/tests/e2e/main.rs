@@ -16,6 +16,7 @@ mod render_pixels;
 mod revis;
 mod runtime_bench;
 mod runtime_compiled;
+mod runtime_draw;
 mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;

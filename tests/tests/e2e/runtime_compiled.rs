@@ -63,3 +63,34 @@ fn portal_backend_hides_the_l_bend_without_vis() {
     assert!(pvs_saw, "without vis the PVS backend draws everything in the frustum");
     assert!(!portal_saw, "the portal backend must not see room_c from room_a");
 }
+
+#[test]
+fn compiled_faces_carry_their_sides_texture_projection() {
+    // Standard and Valve 220 sides, rotated and angled ones included.
+    for name in ["angled.map", "valve220.map", "stairs_pillars.map", "detail_water.map"] {
+        let (map, world) = compiled(name, false);
+        let draw = world.draw();
+        assert!(draw.has_face_draw(), "{name}: texture projections");
+        assert!(draw.num_faces() > 0, "{name}: faces");
+        let sides: Vec<&map::BrushSide> =
+            map.entities.iter().flat_map(|e| &e.brushes).flat_map(|b| &b.sides).collect();
+        for f in 0..draw.num_faces() as u32 {
+            let face = draw.face(f).expect("face");
+            let d = face.draw.expect("projection");
+            let texture = draw.texture_name(face.texture).expect("texture");
+            // Some side with this texture lies in the face's plane (either orientation: liquids are
+            // seen from inside too) and projects exactly so.
+            let found = sides.iter().any(|s| {
+                let n = s.plane.normal.as_vec3a();
+                let same_plane = (n.dot(face.normal).abs() > 0.9999)
+                    && face
+                        .vertices
+                        .iter()
+                        .all(|v| (n.dot(glam::Vec3A::from_array(*v)) - s.plane.dist as f32).abs() < 0.05);
+                let [sv, tv] = s.axes.vectors(s.plane.normal).map(|v| v.map(|c| c as f32));
+                s.texture == texture && same_plane && [sv, tv] == [d.s, d.t]
+            });
+            assert!(found, "{name}: face {f} ({texture}) has no side with its plane and projection");
+        }
+    }
+}

@@ -253,5 +253,8 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         pvs_data,
         gvs_cells: Vec::new(),
         gvs_faces: Vec::new(),
+        // Quake 2 draw data (texinfo axes, light maps) is not carried over yet.
+        face_draw: Vec::new(),
+        texture_sizes: Vec::new(),
     })
 }
