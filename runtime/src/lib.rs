@@ -38,7 +38,6 @@ pub mod gvs_cells;
 pub(crate) mod layout;
 pub mod load;
 pub(crate) mod locate;
-pub mod phs;
 #[cfg(any(test, feature = "testkit"))]
 pub mod poses;
 pub mod pvs;

@@ -10,7 +10,7 @@ use sightline_formats::prt::{self, PortalFile, PrtFormat};
 use sightline_formats::{bsp, slvl};
 
 use crate::error::LoadError;
-use crate::phs::Phs;
+use crate::pvs::PvsRows;
 use crate::world::World;
 
 /// Load a `.slvl` file's bytes.
@@ -20,24 +20,29 @@ pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
 
 /// Load a Quake-family `.bsp` with its visdata. Quake 1 and Half-Life (BSP29, BSP2, BSP2-RMQ,
 /// BSP30): leaf `i` of the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1` (see
-/// [`bsp::to_level`]); Quake 2 (`IBSP` 38): as [`load_q2`], without the PHS; Quake 3 (`IBSP`
+/// [`bsp::to_level`]); Quake 2 (`IBSP` 38): as [`load_q2`]; Quake 3 (`IBSP`
 /// 46/47): its own clusters and cluster PVS ([`bsp::q3::to_level`]). The world has no portals.
 pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
     if bsp::q3::is_q3(bytes) {
         return World::new(&bsp::q3::to_level(&bsp::q3::read(bytes)?));
     }
     if q2::is_q2(bytes) {
-        return load_q2(bytes).map(|(world, _)| world);
+        return load_q2(bytes);
     }
     World::new(&bsp::to_level(&bsp::read(bytes)?))
 }
 
-/// Load a Quake 2 `.bsp` (`IBSP` 38): leaves keep their clusters and the PVS rows are the
-/// file's (see [`q2::to_level`]); the PHS comes beside the world when the file is vised.
-pub fn load_q2(bytes: &[u8]) -> Result<(World, Option<Phs>), LoadError> {
+/// Load a Quake 2 `.bsp` (`IBSP` 38): leaves keep their clusters, and the PVS and PHS rows are
+/// the file's (see [`q2::to_level`]; [`World::decode_phs`] decodes the stored PHS, which
+/// [`sightline_formats::bsp::q2::read`] checked decodes).
+pub fn load_q2(bytes: &[u8]) -> Result<World, LoadError> {
     let file = q2::read(bytes)?;
-    let world = World::new(&q2::to_level(bytes, &file)?)?;
-    Ok((world, Phs::from_q2(&file)))
+    let phs = file.vis.as_ref().and_then(|vis| {
+        let num_clusters = u32::try_from(vis.num_clusters).ok()?;
+        let offsets = vis.offsets.iter().map(|o| o[1]).collect();
+        Some(PvsRows::from_parts(num_clusters, offsets, vis.data.clone()))
+    });
+    World::with_phs(&q2::to_level(bytes, &file)?, phs)
 }
 
 /// Load a Quake `.bsp` and take its portals from the text of the `.prt` file its compiler wrote.

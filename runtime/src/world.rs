@@ -101,8 +101,15 @@ pub struct World {
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 impl World {
-    /// Validate `level` (see the module docs) and lay it out for queries.
+    /// Validate `level` (see the module docs) and lay it out for queries; the PHS is computed
+    /// from the PVS on first use.
     pub fn new(level: &Level) -> Result<Self, LoadError> {
+        Self::with_phs(level, None)
+    }
+
+    /// [`World::new`] with the PHS rows a file stores for itself (Quake 2's visibility lump;
+    /// `None`: computed from the PVS on first use).
+    pub(crate) fn with_phs(level: &Level, phs: Option<PvsRows>) -> Result<Self, LoadError> {
         slvl::validate(level).map_err(LoadError::Invalid)?;
         let tree = Tree::new(level)?;
         if tree.num_faces > (SHARED_FACE - 1) as usize {
@@ -129,8 +136,7 @@ impl World {
             draw: DrawData::new(level, &tree),
             tree,
             rows,
-            // Quake 1 levels carry no PHS: computed from the PVS on first use.
-            phs: PhsRows::stored(None),
+            phs: PhsRows::stored(phs),
             walk,
             cluster_elems,
             all_marks,
@@ -173,7 +179,8 @@ impl World {
     }
 
     /// Decode the PHS row of `cluster` into `out`, as [`World::decode_pvs`] does for the PVS: bit
-    /// `j` set means a sound in cluster `j` may be heard from `cluster`. Row `c` is the union of
+    /// `j` set means a sound in cluster `j` may be heard from `cluster`. A Quake 2 file's own PHS
+    /// rows are used as they are ([`crate::load::load_q2`]); otherwise row `c` is the union of
     /// the PVS rows of every cluster in `c`'s PVS (Quake's `SV_CalcPHS`), computed once, on the
     /// first call (about clusters × visible clusters × row words of work and a transient
     /// `clusters² / 8`-byte matrix: 61 ms for the 3,669 clusters of LibreQuake's E1M1).

@@ -57,7 +57,7 @@ fn quake2_worlds_answer_the_reference_assertions_and_expose_the_phs() {
     let player_start = [64.0, -176.0, 40.0];
     for path in [&ericw, &ours] {
         let bytes = std::fs::read(path).expect("read");
-        let (world, phs) = load::load_q2(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let world = load::load_q2(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert_eq!(world.num_clusters(), 15, "{}", path.display());
         assert!(sees(&world, item_enviro, item_enviro_curve));
         assert!(!sees(&world, item_enviro, player_start_curve));
@@ -65,15 +65,19 @@ fn quake2_worlds_answer_the_reference_assertions_and_expose_the_phs() {
         assert!(sees(&world, player_start, player_start_curve));
         assert!(!sees(&world, player_start, item_enviro_curve));
         assert!(!sees(&world, player_start, item_enviro));
-        // The PHS holds the PVS, and `load_path` gives the same world (no portal file read: a
-        // Quake 2 `.prt` names clusters).
-        let phs = phs.expect("a vised file has a PHS");
+        // The PHS holds the PVS and is the file's own (ericw's is not the union here: its rows,
+        // not a recomputed PHS, come back), and `load_path` gives the same world (no portal file
+        // read: a Quake 2 `.prt` names clusters).
         let (mut pvs_row, mut phs_row) = (Bitset::new(0), Bitset::new(0));
+        let mut phs_pairs = 0;
         for c in 0..world.num_clusters() {
             world.decode_pvs(c, &mut pvs_row);
-            phs.decode(c, &mut phs_row);
+            world.decode_phs(c, &mut phs_row);
             assert!(pvs_row.iter_ones().all(|j| phs_row.get(j)), "cluster {c}: PVS in PHS");
+            phs_pairs += phs_row.iter_ones().count() as u64;
         }
+        let stored = q2::read(&bytes).expect("q2").vis.expect("vis").pairs(q2::Q2Row::Phs).expect("rows");
+        assert_eq!(phs_pairs, stored, "{}: the stored PHS", path.display());
         let by_path = load::load_path(path).expect("load_path");
         assert_eq!((by_path.num_leaves(), by_path.num_portals()), (world.num_leaves(), 0));
     }
