@@ -1,4 +1,5 @@
-//! Portals of a compiled Quake BSP (BSP29, BSP2, BSP2-RMQ) rebuilt from its world tree alone, so a
+//! Portals of a compiled Quake BSP (BSP29, BSP2, BSP2-RMQ, and Half-Life's BSP30, whose tree
+//! records and contents codes are BSP29's) rebuilt from its world tree alone, so a
 //! map whose source and `.prt` are lost can be vised again.
 //!
 //! # How

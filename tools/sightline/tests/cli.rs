@@ -1035,6 +1035,37 @@ fn vis_with_portals_from_the_bsp_passes_ray_validation() {
 }
 
 #[test]
+fn half_life_portals_from_the_bsp_match_sdhlt_and_pass_ray_validation() {
+    let Some(src) = shared_map("hl/dm2.sdhlt.bsp") else { return };
+    // From SDHLT's own portal file, then from the tree alone.
+    let with_prt = temp_dir("hl-from-prt");
+    std::fs::copy(&src, with_prt.join("dm2.bsp")).expect("copy .bsp");
+    std::fs::copy(src.with_extension("prt"), with_prt.join("dm2.prt")).expect("copy .prt");
+    let from_prt = with_prt.join("dm2.bsp");
+    assert_eq!(code(&run(&["vis", s(&from_prt), "--threads", "2"])), 0);
+    let dir = bsp_alone(&src, "hl-from-bsp", "dm2");
+    let bsp = dir.join("dm2.bsp");
+    let o = run(&["vis", s(&bsp), "--portals-from-bsp", "--threads", "2", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let j = stdout_json(&o);
+    let prt_portals = std::fs::read_to_string(src.with_extension("prt")).expect("read .prt");
+    let sdhlt: u64 =
+        prt_portals.split_whitespace().nth(1).and_then(|t| t.parse().ok()).expect("portal count");
+    assert_eq!(
+        j["portals_rebuilt"]["portals"].as_u64(),
+        Some(sdhlt),
+        "the same portals as SDHLT's hlbsp: {j}"
+    );
+    let pairs = |p: &Path| read_bsp(p).pvs_stats().expect("rows").expect("vised").pairs;
+    let (ours, theirs) = (pairs(&bsp) as f64, pairs(&from_prt) as f64);
+    assert!((0.95..=1.05).contains(&(ours / theirs)), "pairs {ours} from the tree vs {theirs} from the .prt");
+    let o = run(&["validate", s(&bsp), "--rays", "200000", "--json"]);
+    assert_eq!(code(&o), 0, "validation found a miss: {}", String::from_utf8_lossy(&o.stdout));
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&with_prt);
+}
+
+#[test]
 fn external_vis_leaves_the_bsp_alone_and_holds_the_pvs_vis_would_write() {
     let Some(dm1) = shared_map("ericw/dm1.bsp") else { return };
     let dir = bsp_alone(&dm1, "external", "dm1");

@@ -16,7 +16,7 @@ use crate::cli::Outcome;
 /// Arguments of `sightline portals`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A Quake `.bsp` (BSP29, BSP2 or BSP2-RMQ).
+    /// A Quake `.bsp` (BSP29, BSP2 or BSP2-RMQ) or a Half-Life one (BSP30).
     pub input: PathBuf,
     /// Portal file to write (default: the input with the extension `.prt`).
     #[arg(short, long)]

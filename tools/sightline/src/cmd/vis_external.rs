@@ -43,7 +43,9 @@ pub(crate) fn check_flags(args: &Args, path: &Path, q2: bool) -> anyhow::Result<
         return Ok(());
     }
     if q2 {
-        bail!("{p}: --portals-from-bsp and --external-vis are for Quake 1 BSPs (BSP29, BSP2, BSP2-RMQ)");
+        bail!(
+            "{p}: --portals-from-bsp and --external-vis are for Quake 1 and Half-Life BSPs (BSP29, BSP2, BSP2-RMQ, BSP30)"
+        );
     }
     if path.is_dir() {
         if !args.external_vis {
