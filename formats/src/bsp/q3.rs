@@ -2,7 +2,8 @@
 //! vis, the runtime and validation need them.
 //!
 //! [`read`] checks the header and every lump it decodes against the file: planes (finite),
-//! nodes (plane and child indices in range, no cycle), leaves (cluster `>= -1`), models, the
+//! nodes (plane and child indices in range, no cycle), leaves (cluster `-1` or below the leaf
+//! count, as every cluster holds a leaf), models, the
 //! entity text, and the visibility lump (lump 16: `int32 numClusters`, `int32 clusterBytes`,
 //! then `numClusters` rows of `clusterBytes` **uncompressed** bytes). Every count is checked
 //! against the bytes present before anything is allocated. [`vis_lump`] lays out a visibility
@@ -240,10 +241,14 @@ pub fn read(bytes: &[u8]) -> Result<Q3Bsp, BspError> {
         planes.push(p);
     }
     let mut leaves = Vec::new();
+    // Every cluster holds a leaf, so a cluster number is below the leaf count: this bounds what
+    // the clusters may cost (a row each, `clusters²` bits) by the file's size.
+    let leaf_count = lumps[lump::LEAVES].length / LEAF_BYTES;
     for (i, (at, mut r)) in records(bytes, &lumps, lump::LEAVES, LEAF_BYTES)?.enumerate() {
         let l = Q3Leaf { cluster: r.i32(), area: r.i32(), mins: ivec3(&mut r), maxs: ivec3(&mut r) };
-        if l.cluster < -1 {
-            return Err(invalid(at, format!("leaf {i}"), format!("cluster {}", l.cluster)));
+        if l.cluster < -1 || i64::from(l.cluster) >= leaf_count as i64 {
+            let detail = format!("cluster {} (-1, or below the {leaf_count} leaves)", l.cluster);
+            return Err(invalid(at, format!("leaf {i}"), detail));
         }
         leaves.push(l);
     }

@@ -321,6 +321,44 @@ fn formats(bin: &Path, dir: &Path) -> Vec<Format> {
             });
         }
     }
+    // The other families: Half-Life (BSP30 with SDHLT's portal dialect), Quake 2 and Quake 3,
+    // each as a mutated BSP beside its good portal file and as a mutated portal file beside its
+    // good BSP.
+    let family = [
+        ("bsp30", "vhlt-prt", "hl/lq_e0m1.sdhlt.bsp", bsp::HEADER_BYTES, true),
+        ("ibsp38", "q2-prt1", "ericw-testmaps/q2_detail_leak_test.bsp", bsp::q2::HEADER_BYTES, false),
+        ("ibsp46", "q3map2-prt", "q3/fan.bsp", bsp::q3::HEADER_BYTES, false),
+    ];
+    for (name, prt_name, rel, header, portals) in family {
+        let Some(path) = sightline_tests::shared_map(rel) else { continue };
+        let (bsp_bytes, prt_bytes) = (read(&path), read(&path.with_extension("prt")));
+        let mut bsp_cmds = vec![
+            vec!["vis", "IN", "--threads", "1"],
+            vec!["info", "IN"],
+            vec!["validate", "IN", "--rays", "2000", "--threads", "1"],
+        ];
+        if portals {
+            bsp_cmds.push(vec!["portals", "IN", "-o", "out.prt"]);
+        }
+        all.push(Format {
+            name,
+            file: "hostile.bsp",
+            seed: bsp_bytes.clone(),
+            text: false,
+            header,
+            beside: vec![("hostile.prt", prt_bytes.clone())],
+            commands: bsp_cmds,
+        });
+        all.push(Format {
+            name: prt_name,
+            file: "hostile.prt",
+            seed: prt_bytes,
+            text: true,
+            header: 64,
+            beside: vec![("hostile.bsp", bsp_bytes)],
+            commands: vec![vec!["vis", "hostile.bsp", "--threads", "1"], vec!["info", "IN"]],
+        });
+    }
     all
 }
 
