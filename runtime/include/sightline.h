@@ -1,5 +1,7 @@
-/* sightline.h: C interface of sightline-runtime (build the crate with `--features ffi`; the
- * library is libsightline_runtime.so / .dylib / sightline_runtime.dll).
+/* sightline.h: C interface of sightline-runtime. The library is the crate sightline-capi
+ * (`cargo build --release -p sightline-capi`: libsightline_capi.so / .dylib / .a, installed as
+ * libsightline with SONAME libsightline.so.0 and pkg-config file sightline.pc; see
+ * runtime/capi/src/lib.rs).
  *
  * Conventions: Quake axes (+Z up), units are map units, angles in degrees. Every function that
  * returns int returns SL_OK (0) on success, or an SL_ERR_* code; sl_last_error() then describes

@@ -1,5 +1,5 @@
-//! The C ABI: compile a small C program against `runtime/include/sightline.h` and the runtime's
-//! shared library (built with feature `ffi` as a dev-dependency of this crate), run it on a level
+//! The C ABI: compile a small C program against `runtime/include/sightline.h` and the shared
+//! library of `sightline-capi` (built as a dev-dependency of this crate), run it on a level
 //! written by the test (and on E1M1 when the shared maps are present), and compare its answers
 //! with the Rust API.
 
@@ -170,15 +170,21 @@ int main(int argc, char **argv) {
 }
 "#;
 
-/// The shared library cargo built next to this test executable, copied away so a concurrent build
-/// cannot swap it mid-test.
+/// The shared library of `sightline-capi` that cargo built for this crate (in `deps/`, beside
+/// this test executable), copied away under its installed name (the SONAME on Linux) so a
+/// concurrent build cannot swap it mid-test.
 fn library(tmp: &Path) -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
     let dir = exe.parent()?;
-    let name =
-        if cfg!(target_os = "macos") { "libsightline_runtime.dylib" } else { "libsightline_runtime.so" };
-    let src = [dir.join(name), dir.join("..").join(name)].into_iter().find(|p| p.is_file())?;
-    let dst = tmp.join(name);
+    let (built, installed) = if cfg!(target_os = "macos") {
+        ("libsightline_capi.dylib", "libsightline.dylib")
+    } else {
+        ("libsightline_capi.so", "libsightline.so.0")
+    };
+    let src = [dir.join(built), dir.join("..").join(built), dir.join("deps").join(built)]
+        .into_iter()
+        .find(|p| p.is_file())?;
+    let dst = tmp.join(installed);
     std::fs::copy(&src, &dst).ok()?;
     Some(dst)
 }
@@ -298,24 +304,48 @@ fn c_program_agrees_with_the_rust_api() {
     }
     let tmp = std::env::temp_dir().join(format!("sightline-ffi-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).expect("temp dir");
-    let lib = library(&tmp).expect("libsightline_runtime shared library next to the test executable");
+    let lib = library(&tmp).expect("libsightline_capi shared library beside the test executable");
+    if cfg!(target_os = "linux")
+        && let Ok(elf) = Command::new("readelf").arg("-d").arg(&lib).output()
+    {
+        let dynamic = String::from_utf8_lossy(&elf.stdout);
+        assert!(dynamic.contains("Library soname: [libsightline.so.0]"), "SONAME: {dynamic}");
+    }
     let src = tmp.join("prog.c");
     std::fs::write(&src, PROGRAM).expect("write C source");
     let include = sightline_tests::workspace_root().join("runtime/include");
-    let prog = tmp.join("prog");
-    let cc = Command::new("cc")
-        .arg(&src)
-        .arg("-std=c99")
-        .arg("-Wall")
-        .arg("-Werror")
-        .arg(format!("-I{}", include.display()))
-        .arg(&lib)
-        .arg(format!("-Wl,-rpath,{}", tmp.display()))
-        .arg("-o")
-        .arg(&prog)
-        .output()
-        .expect("run cc");
-    assert!(cc.status.success(), "cc failed: {}", String::from_utf8_lossy(&cc.stderr));
+    // The program against the shared library, and (Linux) against the static one with the system
+    // libraries `sightline.pc.in` lists in `Libs.private`.
+    let compile = |lib: &Path, out: &Path, extra: &[&str]| {
+        let cc = Command::new("cc")
+            .arg(&src)
+            .arg("-std=c99")
+            .arg("-Wall")
+            .arg("-Werror")
+            .arg(format!("-I{}", include.display()))
+            .arg(lib)
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .expect("run cc");
+        assert!(cc.status.success(), "cc failed: {}", String::from_utf8_lossy(&cc.stderr));
+    };
+    let rpath = format!("-Wl,-rpath,{}", tmp.display());
+    let mut programs = vec![tmp.join("prog")];
+    compile(&lib, &programs[0], &[&rpath]);
+    if cfg!(target_os = "linux") {
+        let built = lib.parent().expect("dir").join("libsightline.a");
+        let exe = std::env::current_exe().expect("exe");
+        let dir = exe.parent().expect("dir");
+        let src = [dir.join("libsightline_capi.a"), dir.join("deps").join("libsightline_capi.a")]
+            .into_iter()
+            .find(|p| p.is_file())
+            .expect("libsightline_capi.a beside the test executable");
+        std::fs::copy(src, &built).expect("copy the static library");
+        programs.push(tmp.join("prog-static"));
+        compile(&built, &programs[1], &["-lpthread", "-ldl", "-lm"]);
+    }
 
     // A level built here, written as .slvl.
     let level = synth::grid_level([6, 5, 2], 64.0, true, |x, y, _| x == 3 && y != 2);
@@ -330,29 +360,33 @@ fn c_program_agrees_with_the_rust_api() {
         assert_eq!(world.leaf_contents(world.leaf_at(Vec3::splat(1.0e6))).map(|c| c.code()), Some(-2));
         cases.push((bsp, world, Vec3::new(480.0, -352.0, 88.0)));
     }
-    for (path, world, eye) in cases {
-        let run = Command::new(&prog)
-            .arg(&path)
-            .args([eye.x, eye.y, eye.z].map(|v| v.to_string()))
-            .output()
-            .expect("run the C program");
-        assert!(
-            run.status.success(),
-            "C program failed ({:?}): {}",
-            run.status,
-            String::from_utf8_lossy(&run.stderr)
-        );
-        let got = String::from_utf8_lossy(&run.stdout).to_string();
-        let want = expected(&world, eye);
-        for (i, (g, w)) in got.lines().zip(want.lines()).enumerate() {
-            assert_eq!(g, w, "{} line {}", path.display(), i + 1);
+    for (path, world, eye) in &cases {
+        let want = expected(world, *eye);
+        for prog in &programs {
+            let run = Command::new(prog)
+                .arg(path)
+                .args([eye.x, eye.y, eye.z].map(|v| v.to_string()))
+                .output()
+                .expect("run the C program");
+            let what = format!("{} on {}", prog.display(), path.display());
+            assert!(
+                run.status.success(),
+                "{what} failed ({:?}): {}",
+                run.status,
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let got = String::from_utf8_lossy(&run.stdout).to_string();
+            for (i, (g, w)) in got.lines().zip(want.lines()).enumerate() {
+                assert_eq!(g, w, "{what} line {}", i + 1);
+            }
+            assert_eq!(got.lines().count(), want.lines().count(), "{what}");
+            assert!(got.lines().nth(3).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
+            // The eye is in open space, and a leaf-contents code tells C about solid.
+            assert!(got.contains("\ncontents -1 "), "{what}");
+            let solid =
+                got.lines().filter(|l| l.starts_with('L') && l.split(' ').nth(1) == Some("-2")).count();
+            assert!(solid > 0, "solid leaves are reported as such: {what}");
         }
-        assert_eq!(got.lines().count(), want.lines().count(), "{}", path.display());
-        assert!(got.lines().nth(3).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
-        // The eye is in open space, and a leaf-contents code tells C about solid.
-        assert!(got.contains("\ncontents -1 "), "{}", path.display());
-        let solid = got.lines().filter(|l| l.starts_with('L') && l.split(' ').nth(1) == Some("-2")).count();
-        assert!(solid > 0, "solid leaves are reported as such: {}", path.display());
     }
     let _ = std::fs::remove_dir_all(&tmp);
 }
