@@ -17,6 +17,7 @@ use glam::{Vec3, Vec3A};
 use crate::backend::{Backend, portal::Portal, pvs::Pvs};
 use crate::camera::Camera;
 use crate::load;
+use crate::pvs::Bitset;
 use crate::scratch::{Scratch, Visible};
 use crate::world::World;
 
@@ -40,9 +41,34 @@ pub const SL_BACKEND_PVS: i32 = 0;
 /// The portal backend.
 pub const SL_BACKEND_PORTAL: i32 = 1;
 
-/// Opaque world handle.
+/// An index (leaf, cluster, face, texture, model) was out of range.
+pub const SL_ERR_RANGE: SlStatus = 6;
+
+/// Opaque world handle: the world, and the C strings it hands out (owned here so their pointers
+/// live as long as the world).
 #[derive(Debug)]
-pub struct SlWorld(World);
+pub struct SlWorld {
+    world: World,
+    /// NUL-terminated texture names, by texture index (an interior NUL becomes a space).
+    texture_names: Vec<CString>,
+    /// The entity text, NUL-terminated.
+    entities: CString,
+}
+
+impl SlWorld {
+    fn new(world: World) -> Self {
+        let draw = world.draw();
+        let texture_names =
+            (0..draw.num_textures() as u32).map(|t| c_string(draw.texture_name(t).unwrap_or(""))).collect();
+        let entities = c_string(draw.entities());
+        Self { world, texture_names, entities }
+    }
+}
+
+/// `text` as a C string, interior NULs replaced by spaces.
+fn c_string(text: &str) -> CString {
+    CString::new(text.replace('\0', " ")).unwrap_or_default()
+}
 
 /// Opaque per-thread culling state.
 #[derive(Debug)]
@@ -108,8 +134,17 @@ fn error_chain(err: &dyn std::error::Error) -> String {
 }
 
 fn set_error(message: String) {
-    let c = CString::new(message.replace('\0', " ")).unwrap_or_default();
-    LAST_ERROR.with(|e| *e.borrow_mut() = c);
+    LAST_ERROR.with(|e| *e.borrow_mut() = c_string(&message));
+}
+
+fn null_argument() -> SlStatus {
+    set_error("null argument".to_string());
+    SL_ERR_NULL
+}
+
+fn out_of_range(what: &str, index: u32, count: usize) -> SlStatus {
+    set_error(format!("{what} {index} out of range (the world has {count})"));
+    SL_ERR_RANGE
 }
 
 fn guard(f: impl FnOnce() -> SlStatus) -> SlStatus {
@@ -125,7 +160,7 @@ fn guard(f: impl FnOnce() -> SlStatus) -> SlStatus {
 fn store_world(result: Result<World, crate::LoadError>, out: *mut *mut SlWorld) -> SlStatus {
     match result {
         Ok(world) => {
-            let ptr = Box::into_raw(Box::new(SlWorld(world)));
+            let ptr = Box::into_raw(Box::new(SlWorld::new(world)));
             // SAFETY: callers checked `out` is non-null; C guarantees it points to writable storage.
             unsafe { *out = ptr };
             SL_OK
@@ -206,10 +241,12 @@ pub unsafe extern "C" fn sl_world_free(world: *mut SlWorld) {
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sl_world_num_leaves(world: *const SlWorld) -> u32 {
     // SAFETY: null or live per the contract.
-    unsafe { world.as_ref() }.map_or(0, |w| w.0.num_leaves() as u32)
+    unsafe { world.as_ref() }.map_or(0, |w| w.world.num_leaves() as u32)
 }
 
-/// The leaf holding `position[0..3]`.
+/// The leaf holding `position[0..3]` (world units). Every point has a leaf: a point in solid or
+/// outside the world gets a solid leaf, which [`sl_leaf_contents`] tells apart
+/// (`SL_CONTENTS_SOLID`).
 ///
 /// # Safety
 /// `world` must be a live world, `position` 3 readable floats, `out_leaf` writable.
@@ -227,7 +264,7 @@ pub unsafe extern "C" fn sl_leaf_at(
             set_error("null argument".to_string());
             return SL_ERR_NULL;
         };
-        *out = w.0.leaf_at(p);
+        *out = w.world.leaf_at(p);
         SL_OK
     })
 }
@@ -253,7 +290,7 @@ pub unsafe extern "C" fn sl_trace(
             set_error("null argument".to_string());
             return SL_ERR_NULL;
         };
-        *out = match w.0.trace(a, b) {
+        *out = match w.world.trace(a, b) {
             Some(h) => SlTrace {
                 hit: 1,
                 start_solid: i32::from(h.start_solid),
@@ -283,7 +320,7 @@ pub unsafe extern "C" fn sl_trace(
 pub unsafe extern "C" fn sl_scratch_new(world: *const SlWorld) -> *mut SlScratch {
     // SAFETY: null or live per the contract.
     let Some(w) = (unsafe { world.as_ref() }) else { return std::ptr::null_mut() };
-    let s = SlScratch { scratch: Scratch::new(&w.0), visible: Visible::for_world(&w.0) };
+    let s = SlScratch { scratch: Scratch::new(&w.world), visible: Visible::for_world(&w.world) };
     Box::into_raw(Box::new(s))
 }
 
@@ -338,7 +375,7 @@ pub unsafe extern "C" fn sl_visible_leaves(
                 return SL_ERR_BACKEND;
             }
         };
-        if !b.supports(&w.0) {
+        if !b.supports(&w.world) {
             set_error(format!("backend `{}` cannot run on this world", b.name()));
             return SL_ERR_BACKEND;
         }
@@ -352,7 +389,7 @@ pub unsafe extern "C" fn sl_visible_leaves(
             near: cam.near_dist,
             far: cam.far_dist,
         };
-        b.cull(&w.0, &c.view(), &mut s.scratch, &mut s.visible);
+        b.cull(&w.world, &c.view(), &mut s.scratch, &mut s.visible);
         let n = s.visible.leaves.len().min(capacity);
         if n > 0 {
             // SAFETY: non-null and writable for `capacity >= n` entries per the contract.
@@ -362,6 +399,559 @@ pub unsafe extern "C" fn sl_visible_leaves(
         *count = s.visible.leaves.len();
         SL_OK
     })
+}
+
+/// The crate version (`"MAJOR.MINOR.PATCH"`), a static NUL-terminated string.
+#[unsafe(no_mangle)]
+pub extern "C" fn sl_version() -> *const c_char {
+    concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast()
+}
+
+/// Number of PVS clusters (0 for null); cluster indices are `0..count`.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_num_clusters(world: *const SlWorld) -> u32 {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(0, |w| w.world.num_clusters())
+}
+
+/// Number of faces (0 for null); face indices are `0..count`, the indices of
+/// [`sl_cluster_faces`] and, for a `.bsp`, the BSP's own face indices.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_num_faces(world: *const SlWorld) -> u32 {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(0, |w| w.world.draw().num_faces() as u32)
+}
+
+/// Number of textures (0 for null); texture indices are `0..count`.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_num_textures(world: *const SlWorld) -> u32 {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(0, |w| w.world.draw().num_textures() as u32)
+}
+
+/// Number of brush models (0 for null); model 0 is the world, models `1..` brush entities.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_num_models(world: *const SlWorld) -> u32 {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(0, |w| w.world.draw().models().len() as u32)
+}
+
+/// The level's entity text (Quake `.map` syntax without brushes), NUL-terminated, owned by the
+/// world (valid until [`sl_world_free`]); null for a null world.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_entities(world: *const SlWorld) -> *const c_char {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(std::ptr::null(), |w| w.entities.as_ptr())
+}
+
+/// What fills leaf `leaf`, as Quake's contents code into `out_contents`: `SL_CONTENTS_EMPTY`
+/// (-1), `SL_CONTENTS_SOLID` (-2), water (-3), slime (-4), lava (-5), sky (-6).
+/// `SL_ERR_RANGE` when `leaf >= sl_world_num_leaves`.
+///
+/// # Safety
+/// `world` must be a live world and `out_contents` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_leaf_contents(
+    world: *const SlWorld,
+    leaf: u32,
+    out_contents: *mut i32,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/writable per the contract.
+        let (Some(w), Some(out)) = (unsafe { world.as_ref() }, unsafe { out_contents.as_mut() }) else {
+            return null_argument();
+        };
+        match w.world.leaf_contents(leaf) {
+            Some(c) => {
+                *out = c.code();
+                SL_OK
+            }
+            None => out_of_range("leaf", leaf, w.world.num_leaves()),
+        }
+    })
+}
+
+/// The PVS cluster of leaf `leaf` into `out_cluster`: `0..sl_world_num_clusters`, or -1 for a
+/// leaf without a cluster (solid leaves, leaves outside the world tree). `SL_ERR_RANGE` when
+/// `leaf >= sl_world_num_leaves`.
+///
+/// # Safety
+/// `world` must be a live world and `out_cluster` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_leaf_cluster(
+    world: *const SlWorld,
+    leaf: u32,
+    out_cluster: *mut i32,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/writable per the contract.
+        let (Some(w), Some(out)) = (unsafe { world.as_ref() }, unsafe { out_cluster.as_mut() }) else {
+            return null_argument();
+        };
+        if leaf as usize >= w.world.num_leaves() {
+            return out_of_range("leaf", leaf, w.world.num_leaves());
+        }
+        *out = w.world.leaf_cluster(leaf).and_then(|c| i32::try_from(c).ok()).unwrap_or(-1);
+        SL_OK
+    })
+}
+
+/// The bounds of leaf `leaf` (world units, as the level stores them) into `out_mins[0..3]` and
+/// `out_maxs[0..3]`. `SL_ERR_RANGE` when `leaf >= sl_world_num_leaves`.
+///
+/// # Safety
+/// `world` must be a live world, `out_mins` and `out_maxs` writable for 3 floats each.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_leaf_bounds(
+    world: *const SlWorld,
+    leaf: u32,
+    out_mins: *mut f32,
+    out_maxs: *mut f32,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live per the contract.
+        let Some(w) = (unsafe { world.as_ref() }) else { return null_argument() };
+        if out_mins.is_null() || out_maxs.is_null() {
+            return null_argument();
+        }
+        let Some(b) = w.world.leaf_bounds(leaf) else {
+            return out_of_range("leaf", leaf, w.world.num_leaves());
+        };
+        // SAFETY: non-null and writable for 3 floats each per the contract.
+        unsafe {
+            write3(out_mins, b.mins());
+            write3(out_maxs, b.maxs());
+        }
+        SL_OK
+    })
+}
+
+/// Which of the two rows [`row`] decodes.
+#[derive(Clone, Copy)]
+enum Row {
+    Pvs,
+    Phs,
+}
+
+/// The PVS or PHS row of `cluster` through the buffer protocol of [`sl_pvs_row`].
+///
+/// # Safety
+/// As [`sl_pvs_row`].
+unsafe fn row(
+    world: *const SlWorld,
+    cluster: u32,
+    which: Row,
+    out_words: *mut u64,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live per the contract.
+        let Some(w) = (unsafe { world.as_ref() }) else { return null_argument() };
+        let n = w.world.num_clusters();
+        if cluster >= n {
+            return out_of_range("cluster", cluster, n as usize);
+        }
+        let mut bits = Bitset::new(n as usize);
+        match which {
+            Row::Pvs => w.world.decode_pvs(cluster, &mut bits),
+            Row::Phs => w.world.decode_phs(cluster, &mut bits),
+        }
+        // SAFETY: forwarded contract.
+        unsafe { write_list(bits.words(), out_words, capacity, out_count) }
+    })
+}
+
+/// The PVS row of `cluster` as 64-bit words: cluster `j` is potentially visible from `cluster`
+/// when bit `j % 64` (least significant first) of word `j / 64` is set; bits past the last
+/// cluster are clear. There are `(sl_world_num_clusters + 63) / 64` words; a level without vis
+/// data has every cluster's bit set. Buffer protocol: writes at most `capacity` words to
+/// `out_words` and the full word count to `out_count` (call with NULL/0 first to get the count).
+/// `SL_ERR_RANGE` when `cluster >= sl_world_num_clusters` (a leaf without a cluster sees
+/// everything, as in Quake). Allocates a row per call.
+///
+/// # Safety
+/// `world` must be a live world, `out_words` writable for `capacity` words (may be null when
+/// `capacity` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_pvs_row(
+    world: *const SlWorld,
+    cluster: u32,
+    out_words: *mut u64,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    // SAFETY: forwarded contract.
+    unsafe { row(world, cluster, Row::Pvs, out_words, capacity, out_count) }
+}
+
+/// The PHS row of `cluster` (bit `j` set: a sound in cluster `j` may be heard from `cluster`), in
+/// the layout and buffer protocol of [`sl_pvs_row`]. A Quake 2 file's own PHS is used; otherwise
+/// the first call on a world computes every row (tens of milliseconds on a large map).
+///
+/// # Safety
+/// As [`sl_pvs_row`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_phs_row(
+    world: *const SlWorld,
+    cluster: u32,
+    out_words: *mut u64,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    // SAFETY: forwarded contract.
+    unsafe { row(world, cluster, Row::Phs, out_words, capacity, out_count) }
+}
+
+/// The open (non-solid) world leaves that the axis-aligned box from `mins[0..3]` to `maxs[0..3]`
+/// (world units; swapped corners span the same box) touches, each once, in tree order (Quake's
+/// efrags). Conservative: a box within 1/32 unit of a leaf counts as touching it. Buffer
+/// protocol as [`sl_visible_leaves`]: writes at most `capacity` leaves, and the full count.
+///
+/// # Safety
+/// `world` must be a live world, `mins`/`maxs` 3 readable floats each, `out_leaves` writable for
+/// `capacity` entries (may be null when `capacity` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_leaves_touching(
+    world: *const SlWorld,
+    mins: *const f32,
+    maxs: *const f32,
+    out_leaves: *mut u32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/readable per the contract.
+        let (Some(w), Some(a), Some(b)) =
+            (unsafe { world.as_ref() }, unsafe { read3(mins) }, unsafe { read3(maxs) })
+        else {
+            return null_argument();
+        };
+        let mut leaves = Vec::new();
+        w.world.leaves_touching(a, b, &mut leaves);
+        // SAFETY: forwarded contract.
+        unsafe { write_list(&leaves, out_leaves, capacity, out_count) }
+    })
+}
+
+/// Whether the box from `mins[0..3]` to `maxs[0..3]` (world units) is potentially visible from
+/// `eye[0..3]`: `out_visible` is 1 when the box touches an open leaf whose cluster is in the PVS
+/// of the eye's cluster, else 0. Conservative; an eye in solid or outside the world sees
+/// everything, as in Quake.
+///
+/// # Safety
+/// `world` must be a live world, `eye`/`mins`/`maxs` 3 readable floats each, `out_visible`
+/// writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_box_potentially_visible(
+    world: *const SlWorld,
+    eye: *const f32,
+    mins: *const f32,
+    maxs: *const f32,
+    out_visible: *mut i32,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/readable/writable per the contract.
+        let (Some(w), Some(e), Some(a), Some(b), Some(out)) = (
+            unsafe { world.as_ref() },
+            unsafe { read3(eye) },
+            unsafe { read3(mins) },
+            unsafe { read3(maxs) },
+            unsafe { out_visible.as_mut() },
+        ) else {
+            return null_argument();
+        };
+        let mut bits = Bitset::default();
+        *out = i32::from(w.world.box_potentially_visible(e, a, b, &mut bits));
+        SL_OK
+    })
+}
+
+/// Remove from `faces[0..count]`, in place, every face whose plane faces away from `eye[0..3]` by
+/// more than 1/32 unit, keeping the order (and faces out of range); writes the number kept to
+/// `out_count`. Run it on the faces of the visible leaves.
+///
+/// # Safety
+/// `world` must be a live world, `eye` 3 readable floats, `faces` readable and writable for
+/// `count` entries (may be null when `count` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_cull_back_faces(
+    world: *const SlWorld,
+    eye: *const f32,
+    faces: *mut u32,
+    count: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/readable/writable per the contract.
+        let (Some(w), Some(e), Some(kept)) =
+            (unsafe { world.as_ref() }, unsafe { read3(eye) }, unsafe { out_count.as_mut() })
+        else {
+            return null_argument();
+        };
+        if faces.is_null() && count > 0 {
+            return null_argument();
+        }
+        let mut list = if count == 0 {
+            Vec::new()
+        } else {
+            // SAFETY: non-null and readable for `count` entries per the contract.
+            unsafe { std::slice::from_raw_parts(faces, count) }.to_vec()
+        };
+        w.world.cull_back_faces(e, &mut list);
+        if !list.is_empty() {
+            // SAFETY: writable for `count >= list.len()` entries per the contract.
+            unsafe { std::slice::from_raw_parts_mut(faces, list.len()) }.copy_from_slice(&list);
+        }
+        *kept = list.len();
+        SL_OK
+    })
+}
+
+/// A face, as [`sl_face`] gives it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SlFace {
+    /// Unit normal of the face's plane, pointing to the side the face is seen from.
+    pub normal: [f32; 3],
+    /// `normal · p` for points on the face (world units).
+    pub dist: f32,
+    /// Texture index (`0..sl_world_num_textures`).
+    pub texture: u32,
+    /// Number of vertices ([`sl_face_vertices`]).
+    pub num_vertices: u32,
+    /// 1 when the level has texture projections (`s`, `t`, `flags`, `styles`, `light_offset`
+    /// below); 0 when it has none and those fields are zero, styles 255 and `light_offset` -1.
+    pub has_draw: i32,
+    /// S axis (texels per world unit along x, y, z) and offset: `s = s[0..3] · p + s[3]` texels.
+    pub s: [f32; 4],
+    /// T axis and offset, as `s`.
+    pub t: [f32; 4],
+    /// Quake texinfo flags (bit 0: sky or liquid, warped and not light-mapped).
+    pub flags: u32,
+    /// Light styles of the light maps; 255 ends the list.
+    pub styles: [u8; 4],
+    /// Byte offset of the first light map in the source BSP's lighting lump; -1 for none.
+    pub light_offset: i32,
+}
+
+/// Face `face` into `out`: plane, texture, vertex count and draw data. `SL_ERR_RANGE` when
+/// `face >= sl_world_num_faces`.
+///
+/// # Safety
+/// `world` must be a live world and `out` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_face(world: *const SlWorld, face: u32, out: *mut SlFace) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/writable per the contract.
+        let (Some(w), Some(out)) = (unsafe { world.as_ref() }, unsafe { out.as_mut() }) else {
+            return null_argument();
+        };
+        let draw = w.world.draw();
+        let Some(f) = draw.face(face) else { return out_of_range("face", face, draw.num_faces()) };
+        let d = f.draw.copied();
+        let fd = d.unwrap_or(sightline_formats::level::FaceDraw::NONE);
+        *out = SlFace {
+            normal: f.normal.to_array(),
+            dist: f.dist,
+            texture: f.texture,
+            num_vertices: f.vertices.len() as u32,
+            has_draw: i32::from(d.is_some()),
+            s: fd.s,
+            t: fd.t,
+            flags: fd.flags,
+            styles: fd.styles,
+            light_offset: fd.light_offset,
+        };
+        SL_OK
+    })
+}
+
+/// The vertices of face `face`, clockwise seen from the front of its plane (Quake's order),
+/// world units, as `x, y, z` float triples: writes at most `capacity` vertices (`3 * capacity`
+/// floats) to `out_xyz` and the full vertex count to `out_count` (call with NULL/0 first).
+/// `SL_ERR_RANGE` when `face >= sl_world_num_faces`.
+///
+/// # Safety
+/// `world` must be a live world, `out_xyz` writable for `3 * capacity` floats (may be null when
+/// `capacity` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_face_vertices(
+    world: *const SlWorld,
+    face: u32,
+    out_xyz: *mut f32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live per the contract.
+        let Some(w) = (unsafe { world.as_ref() }) else { return null_argument() };
+        let draw = w.world.draw();
+        let Some(f) = draw.face(face) else { return out_of_range("face", face, draw.num_faces()) };
+        // SAFETY: forwarded contract; `[f32; 3]` has the alignment of `f32`.
+        unsafe { write_list(f.vertices, out_xyz.cast::<[f32; 3]>(), capacity, out_count) }
+    })
+}
+
+/// Name of texture `texture`, NUL-terminated, owned by the world (valid until
+/// [`sl_world_free`]; empty for a texture missing from a BSP). Null, with [`sl_last_error`] set,
+/// for a null world or `texture >= sl_world_num_textures`.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_texture_name(world: *const SlWorld, texture: u32) -> *const c_char {
+    // SAFETY: null or live per the contract.
+    let Some(w) = (unsafe { world.as_ref() }) else {
+        null_argument();
+        return std::ptr::null();
+    };
+    match w.texture_names.get(texture as usize) {
+        Some(name) => name.as_ptr(),
+        None => {
+            out_of_range("texture", texture, w.texture_names.len());
+            std::ptr::null()
+        }
+    }
+}
+
+/// Size of texture `texture` in texels into `out_width`/`out_height`; both 0 when the level does
+/// not size its textures (a level compiled from a `.map`). `SL_ERR_RANGE` when
+/// `texture >= sl_world_num_textures`.
+///
+/// # Safety
+/// `world` must be a live world, `out_width` and `out_height` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_texture_size(
+    world: *const SlWorld,
+    texture: u32,
+    out_width: *mut u32,
+    out_height: *mut u32,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/writable per the contract.
+        let (Some(w), Some(width), Some(height)) =
+            (unsafe { world.as_ref() }, unsafe { out_width.as_mut() }, unsafe { out_height.as_mut() })
+        else {
+            return null_argument();
+        };
+        let draw = w.world.draw();
+        if texture as usize >= draw.num_textures() {
+            return out_of_range("texture", texture, draw.num_textures());
+        }
+        [*width, *height] = draw.texture_size(texture).unwrap_or([0, 0]);
+        SL_OK
+    })
+}
+
+/// A brush model, as [`sl_model`] gives it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SlModel {
+    /// Smallest corner of its bounds, world units (where the model sits as compiled).
+    pub mins: [f32; 3],
+    /// Largest corner of its bounds.
+    pub maxs: [f32; 3],
+    /// Its faces are `first_face..first_face + num_faces` in the face index space.
+    pub first_face: u32,
+    /// Number of faces.
+    pub num_faces: u32,
+}
+
+/// Brush model `model` into `out` (model 0 is the world; a brush entity's placement comes from
+/// its `"model" "*N"` entity). `SL_ERR_RANGE` when `model >= sl_world_num_models`.
+///
+/// # Safety
+/// `world` must be a live world and `out` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_model(world: *const SlWorld, model: u32, out: *mut SlModel) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/writable per the contract.
+        let (Some(w), Some(out)) = (unsafe { world.as_ref() }, unsafe { out.as_mut() }) else {
+            return null_argument();
+        };
+        let models = w.world.draw().models();
+        let Some(m) = models.get(model as usize) else { return out_of_range("model", model, models.len()) };
+        *out = SlModel {
+            mins: m.mins.to_array(),
+            maxs: m.maxs.to_array(),
+            first_face: m.faces.start,
+            num_faces: m.faces.end - m.faces.start,
+        };
+        SL_OK
+    })
+}
+
+/// The faces of the world leaves of cluster `cluster`, each once, ascending. Buffer protocol as
+/// [`sl_visible_leaves`]. `SL_ERR_RANGE` when `cluster >= sl_world_num_clusters`.
+///
+/// # Safety
+/// `world` must be a live world, `out_faces` writable for `capacity` entries (may be null when
+/// `capacity` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_cluster_faces(
+    world: *const SlWorld,
+    cluster: u32,
+    out_faces: *mut u32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live per the contract.
+        let Some(w) = (unsafe { world.as_ref() }) else { return null_argument() };
+        let n = w.world.num_clusters();
+        if cluster >= n {
+            return out_of_range("cluster", cluster, n as usize);
+        }
+        // SAFETY: forwarded contract.
+        unsafe { write_list(w.world.draw().cluster_faces(cluster), out_faces, capacity, out_count) }
+    })
+}
+
+/// The buffer protocol: copy `min(src.len(), capacity)` items to `out` and store `src.len()` in
+/// `out_count`.
+///
+/// # Safety
+/// `out` must be writable for `capacity` items (it may be null when `capacity` is 0) and
+/// `out_count` null or writable.
+unsafe fn write_list<T: Copy>(src: &[T], out: *mut T, capacity: usize, out_count: *mut usize) -> SlStatus {
+    // SAFETY: null or writable per the contract.
+    let Some(count) = (unsafe { out_count.as_mut() }) else { return null_argument() };
+    if out.is_null() && capacity > 0 {
+        set_error("null buffer with non-zero capacity".to_string());
+        return SL_ERR_NULL;
+    }
+    let n = src.len().min(capacity);
+    if n > 0 {
+        // SAFETY: non-null and writable for `capacity >= n` items per the contract.
+        unsafe { std::slice::from_raw_parts_mut(out, n) }.copy_from_slice(&src[..n]);
+    }
+    *count = src.len();
+    SL_OK
+}
+
+/// Write three floats to a C pointer.
+///
+/// # Safety
+/// `p` must be non-null and point to 3 writable floats.
+unsafe fn write3(p: *mut f32, v: Vec3A) {
+    // SAFETY: per the contract.
+    unsafe { std::slice::from_raw_parts_mut(p, 3) }.copy_from_slice(&v.to_array());
 }
 
 /// Three floats from a C pointer.

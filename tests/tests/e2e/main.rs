@@ -7,6 +7,7 @@ mod bundled_expectations;
 mod compile_cli;
 mod compile_maps;
 mod family_runtime;
+mod ffi_header;
 mod gvs_visibility;
 mod info_cli;
 mod map_parse;

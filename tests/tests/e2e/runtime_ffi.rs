@@ -1,5 +1,5 @@
-//! The C ABI: compile a small C program against `runtime/include/sightline.h` and the runtime's
-//! shared library (built with feature `ffi` as a dev-dependency of this crate), run it on a level
+//! The C ABI: compile a small C program against `runtime/include/sightline.h` and the shared
+//! library of `sightline-capi` (built as a dev-dependency of this crate), run it on a level
 //! written by the test (and on E1M1 when the shared maps are present), and compare its answers
 //! with the Rust API.
 
@@ -7,14 +7,25 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
+use sightline_formats::level::FaceDraw;
 use sightline_formats::slvl;
 use sightline_runtime::backend::{Backend, pvs::Pvs};
-use sightline_runtime::{Camera, Scratch, Visible, World, load, synth};
+use sightline_runtime::{Bitset, Camera, Scratch, Visible, World, load, synth};
 
 const PROGRAM: &str = r#"
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include "sightline.h"
+
+static unsigned bits(float f) { uint32_t u; memcpy(&u, &f, sizeof u); return u; }
+
+/* FNV-1a over 64-bit words, as `hash` in the Rust test. */
+static unsigned long long hash(const uint64_t *w, size_t n) {
+    unsigned long long h = 1469598103934665603ULL;
+    for (size_t i = 0; i < n; i++) { h ^= w[i]; h *= 1099511628211ULL; }
+    return h;
+}
 
 int main(int argc, char **argv) {
     if (argc != 5) return 90;
@@ -23,6 +34,7 @@ int main(int argc, char **argv) {
     int rc = sl_world_load_file(argv[1], &world);
     if (rc != SL_OK) { fprintf(stderr, "load: %d %s\n", rc, sl_last_error()); return 92; }
     float eye[3] = { (float)atof(argv[2]), (float)atof(argv[3]), (float)atof(argv[4]) };
+    printf("version %s\n", sl_version());
     uint32_t leaf = 0;
     if (sl_leaf_at(world, eye, &leaf) != SL_OK) return 93;
     printf("leaf %u\n", leaf);
@@ -43,25 +55,152 @@ int main(int argc, char **argv) {
     if (sl_visible_leaves(world, scratch, &cam, 7, leaves, count, &again) != SL_ERR_BACKEND) return 97;
     free(leaves);
     sl_scratch_free(scratch);
+
+    uint32_t nleaves = sl_world_num_leaves(world), nclusters = sl_world_num_clusters(world);
+    uint32_t nfaces = sl_world_num_faces(world), ntextures = sl_world_num_textures(world);
+    uint32_t nmodels = sl_world_num_models(world);
+    printf("counts %u %u %u %u %u\n", nleaves, nclusters, nfaces, ntextures, nmodels);
+    if (sl_world_num_clusters(NULL) != 0 || sl_world_entities(NULL) != NULL) return 60;
+
+    /* Range and null checks. */
+    int32_t c = 0;
+    SlFace face;
+    SlModel model;
+    uint32_t u = 0, v = 0;
+    size_t n = 0;
+    if (sl_leaf_contents(world, nleaves, &c) != SL_ERR_RANGE || sl_last_error()[0] == 0) return 61;
+    if (sl_leaf_contents(NULL, 0, &c) != SL_ERR_NULL || sl_leaf_contents(world, 0, NULL) != SL_ERR_NULL) return 62;
+    if (sl_leaf_cluster(world, nleaves, &c) != SL_ERR_RANGE) return 63;
+    if (sl_pvs_row(world, nclusters, NULL, 0, &n) != SL_ERR_RANGE || sl_phs_row(world, nclusters, NULL, 0, &n) != SL_ERR_RANGE) return 64;
+    if (sl_face(world, nfaces, &face) != SL_ERR_RANGE || sl_face_vertices(world, nfaces, NULL, 0, &n) != SL_ERR_RANGE) return 65;
+    if (sl_texture_name(world, ntextures) != NULL || sl_texture_size(world, ntextures, &u, &v) != SL_ERR_RANGE) return 66;
+    if (sl_model(world, nmodels, &model) != SL_ERR_RANGE || sl_cluster_faces(world, nclusters, NULL, 0, &n) != SL_ERR_RANGE) return 67;
+    if (nfaces > 0 && sl_face_vertices(world, 0, NULL, 1, &n) != SL_ERR_NULL) return 68;
+    if (sl_leaves_touching(world, eye, NULL, NULL, 0, &n) != SL_ERR_NULL) return 69;
+
+    /* Every point has a leaf; one far outside the world is solid in a sealed map. */
+    float outside[3] = { 1.0e6f, 1.0e6f, 1.0e6f };
+    int32_t at_eye = 0, at_outside = 0;
+    if (sl_leaf_contents(world, leaf, &at_eye) != SL_OK) return 70;
+    if (sl_leaf_at(world, outside, &u) != SL_OK || sl_leaf_contents(world, u, &at_outside) != SL_OK) return 71;
+    printf("contents %d %d\n", at_eye, at_outside);
+
+    for (uint32_t l = 0; l < nleaves; l++) {
+        float mins[3], maxs[3];
+        if (sl_leaf_contents(world, l, &c) != SL_OK) return 72;
+        int32_t cluster = 0;
+        if (sl_leaf_cluster(world, l, &cluster) != SL_OK || sl_leaf_bounds(world, l, mins, maxs) != SL_OK) return 73;
+        printf("L%u %d %d %08x %08x %08x %08x %08x %08x\n", l, c, cluster, bits(mins[0]), bits(mins[1]),
+               bits(mins[2]), bits(maxs[0]), bits(maxs[1]), bits(maxs[2]));
+    }
+    uint64_t *row = NULL;
+    uint32_t *list = NULL;
+    for (uint32_t k = 0; k < nclusters; k++) {
+        size_t words = 0, w2 = 0, w3 = 0;
+        if (sl_pvs_row(world, k, NULL, 0, &words) != SL_OK) return 74;
+        row = realloc(row, (words + 1) * sizeof(uint64_t));
+        if (sl_pvs_row(world, k, row, words, &w2) != SL_OK || w2 != words) return 75;
+        unsigned long long pvs = hash(row, words);
+        if (sl_phs_row(world, k, row, words, &w3) != SL_OK || w3 != words) return 76;
+        if (sl_cluster_faces(world, k, NULL, 0, &n) != SL_OK) return 77;
+        list = realloc(list, (n + 1) * sizeof(uint32_t));
+        if (sl_cluster_faces(world, k, list, n, &n) != SL_OK) return 78;
+        printf("C%u %zu %016llx %016llx %zu:", k, words, pvs, hash(row, words), n);
+        for (size_t i = 0; i < n; i++) printf(" %u", list[i]);
+        printf("\n");
+    }
+    free(row);
+
+    /* Box queries around the eye and over every leaf's box. */
+    float lo[3] = { eye[0] - 100.0f, eye[1] - 100.0f, eye[2] - 100.0f };
+    float hi[3] = { eye[0] + 100.0f, eye[1] + 100.0f, eye[2] + 100.0f };
+    if (sl_leaves_touching(world, hi, lo, NULL, 0, &n) != SL_OK) return 79;
+    list = realloc(list, (n + 1) * sizeof(uint32_t));
+    if (sl_leaves_touching(world, hi, lo, list, n, &n) != SL_OK) return 80;
+    printf("touching %zu:", n);
+    for (size_t i = 0; i < n; i++) printf(" %u", list[i]);
+    printf("\nboxes ");
+    for (uint32_t l = 0; l < nleaves; l++) {
+        float mins[3], maxs[3];
+        int32_t visible = 0;
+        if (sl_leaf_bounds(world, l, mins, maxs) != SL_OK) return 81;
+        if (sl_box_potentially_visible(world, eye, mins, maxs, &visible) != SL_OK) return 82;
+        printf("%d", visible);
+    }
+    printf("\n");
+
+    /* Faces, back-face culled from the eye. */
+    list = realloc(list, (nfaces + 1) * sizeof(uint32_t));
+    for (uint32_t f = 0; f < nfaces; f++) list[f] = f;
+    if (sl_cull_back_faces(world, eye, list, nfaces, &n) != SL_OK) return 83;
+    printf("front %zu:", n);
+    for (size_t i = 0; i < n; i++) printf(" %u", list[i]);
+    printf("\n");
+    free(list);
+    float *xyz = NULL;
+    for (uint32_t f = 0; f < nfaces; f++) {
+        if (sl_face(world, f, &face) != SL_OK) return 84;
+        size_t nv = 0;
+        if (sl_face_vertices(world, f, NULL, 0, &nv) != SL_OK || nv != face.num_vertices) return 85;
+        xyz = realloc(xyz, (3 * nv + 1) * sizeof(float));
+        if (sl_face_vertices(world, f, xyz, nv, &nv) != SL_OK) return 86;
+        printf("F%u %08x %08x %08x %08x t%u d%d", f, bits(face.normal[0]), bits(face.normal[1]),
+               bits(face.normal[2]), bits(face.dist), face.texture, face.has_draw);
+        for (int i = 0; i < 4; i++) printf(" %08x %08x", bits(face.s[i]), bits(face.t[i]));
+        printf(" %u %u %u %u %u %d v%zu", face.flags, face.styles[0], face.styles[1], face.styles[2], face.styles[3],
+               face.light_offset, nv);
+        for (size_t i = 0; i < 3 * nv; i++) printf(" %08x", bits(xyz[i]));
+        printf("\n");
+    }
+    free(xyz);
+    for (uint32_t t = 0; t < ntextures; t++) {
+        const char *name = sl_texture_name(world, t);
+        if (name == NULL || sl_texture_size(world, t, &u, &v) != SL_OK) return 87;
+        printf("T%u %s %u %u\n", t, name, u, v);
+    }
+    for (uint32_t m = 0; m < nmodels; m++) {
+        if (sl_model(world, m, &model) != SL_OK) return 88;
+        printf("M%u %08x %08x %08x %08x %08x %08x %u %u\n", m, bits(model.mins[0]), bits(model.mins[1]),
+               bits(model.mins[2]), bits(model.maxs[0]), bits(model.maxs[1]), bits(model.maxs[2]),
+               model.first_face, model.num_faces);
+    }
+    printf("entities %zu\n%s\n", strlen(sl_world_entities(world)), sl_world_entities(world));
     sl_world_free(world);
     return 0;
 }
 "#;
 
-/// The shared library cargo built next to this test executable, copied away so a concurrent build
-/// cannot swap it mid-test.
+/// The shared library of `sightline-capi` that cargo built for this crate (in `deps/`, beside
+/// this test executable), copied away under its installed name (the SONAME on Linux) so a
+/// concurrent build cannot swap it mid-test.
 fn library(tmp: &Path) -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
     let dir = exe.parent()?;
-    let name =
-        if cfg!(target_os = "macos") { "libsightline_runtime.dylib" } else { "libsightline_runtime.so" };
-    let src = [dir.join(name), dir.join("..").join(name)].into_iter().find(|p| p.is_file())?;
-    let dst = tmp.join(name);
+    let (built, installed) = if cfg!(target_os = "macos") {
+        ("libsightline_capi.dylib", "libsightline.dylib")
+    } else {
+        ("libsightline_capi.so", "libsightline.so.0")
+    };
+    let src = [dir.join(built), dir.join("..").join(built), dir.join("deps").join(built)]
+        .into_iter()
+        .find(|p| p.is_file())?;
+    let dst = tmp.join(installed);
     std::fs::copy(&src, &dst).ok()?;
     Some(dst)
 }
 
+/// FNV-1a over 64-bit words, as `hash` in the C program.
+fn hash(words: &[u64]) -> u64 {
+    words.iter().fold(1469598103934665603, |h, &w| (h ^ w).wrapping_mul(1099511628211))
+}
+
+/// A float's bits, as the C program prints them.
+fn hex(v: impl IntoIterator<Item = f32>) -> String {
+    v.into_iter().map(|f| format!(" {:08x}", f.to_bits())).collect()
+}
+
 fn expected(world: &World, eye: Vec3) -> String {
+    use std::fmt::Write as _;
     let leaf = world.leaf_at(eye);
     let to = eye + Vec3::new(5000.0, 1000.0, 500.0);
     let trace = match world.trace(eye, to) {
@@ -71,8 +210,90 @@ fn expected(world: &World, eye: Vec3) -> String {
     let cam = Camera { yaw: 30.0, fov_y: 73.74, ..Camera::quake(eye, 30.0, 0.0) };
     let mut out = Visible::default();
     Pvs.cull(world, &cam.view(), &mut Scratch::new(world), &mut out);
-    let list: String = out.leaves.iter().map(|l| format!(" {l}")).collect();
-    format!("leaf {leaf}\n{trace}\nvisible {}:{list}\n", out.leaves.len())
+    let list = |l: &[u32]| -> String { l.iter().map(|x| format!(" {x}")).collect() };
+    let draw = world.draw();
+    let contents = |l: u32| world.leaf_contents(l).expect("leaf").code();
+    let mut s = format!(
+        "version {}\nleaf {leaf}\n{trace}\nvisible {}:{}\ncounts {} {} {} {} {}\ncontents {} {}\n",
+        env!("CARGO_PKG_VERSION"),
+        out.leaves.len(),
+        list(&out.leaves),
+        world.num_leaves(),
+        world.num_clusters(),
+        draw.num_faces(),
+        draw.num_textures(),
+        draw.models().len(),
+        contents(leaf),
+        contents(world.leaf_at(Vec3::splat(1.0e6))),
+    );
+    for l in 0..world.num_leaves() as u32 {
+        let b = world.leaf_bounds(l).expect("leaf");
+        let cluster = world.leaf_cluster(l).map_or(-1, |c| c as i64);
+        let _ = writeln!(
+            s,
+            "L{l} {} {cluster}{}",
+            contents(l),
+            hex(b.mins().to_array().into_iter().chain(b.maxs().to_array()))
+        );
+    }
+    let mut pvs = Bitset::default();
+    let mut phs = Bitset::default();
+    for k in 0..world.num_clusters() {
+        world.decode_pvs(k, &mut pvs);
+        world.decode_phs(k, &mut phs);
+        let faces = draw.cluster_faces(k);
+        let _ = writeln!(
+            s,
+            "C{k} {} {:016x} {:016x} {}:{}",
+            pvs.words().len(),
+            hash(pvs.words()),
+            hash(phs.words()),
+            faces.len(),
+            list(faces)
+        );
+    }
+    let mut touching = Vec::new();
+    world.leaves_touching(eye + 100.0, eye - 100.0, &mut touching);
+    let _ = write!(s, "touching {}:{}\nboxes ", touching.len(), list(&touching));
+    for l in 0..world.num_leaves() as u32 {
+        let b = world.leaf_bounds(l).expect("leaf");
+        s.push(if world.box_potentially_visible(eye, b.mins(), b.maxs(), &mut pvs) { '1' } else { '0' });
+    }
+    let mut front: Vec<u32> = (0..draw.num_faces() as u32).collect();
+    world.cull_back_faces(eye, &mut front);
+    let _ = writeln!(s, "\nfront {}:{}", front.len(), list(&front));
+    for f in 0..draw.num_faces() as u32 {
+        let v = draw.face(f).expect("face");
+        let d = v.draw.copied().unwrap_or(FaceDraw::NONE);
+        let st: String = (0..4).map(|i| hex([d.s[i], d.t[i]])).collect();
+        let [a, b, c, e] = d.styles;
+        let _ = writeln!(
+            s,
+            "F{f}{} t{} d{}{st} {} {a} {b} {c} {e} {} v{}{}",
+            hex(v.normal.to_array().into_iter().chain([v.dist])),
+            v.texture,
+            i32::from(v.draw.is_some()),
+            d.flags,
+            d.light_offset,
+            v.vertices.len(),
+            hex(v.vertices.iter().flatten().copied()),
+        );
+    }
+    for t in 0..draw.num_textures() as u32 {
+        let [w, h] = draw.texture_size(t).unwrap_or([0, 0]);
+        let _ = writeln!(s, "T{t} {} {w} {h}", draw.texture_name(t).expect("texture"));
+    }
+    for (i, m) in draw.models().iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "M{i}{} {} {}",
+            hex(m.mins.to_array().into_iter().chain(m.maxs.to_array())),
+            m.faces.start,
+            m.faces.len()
+        );
+    }
+    let _ = writeln!(s, "entities {}\n{}", draw.entities().len(), draw.entities());
+    s
 }
 
 #[test]
@@ -83,24 +304,48 @@ fn c_program_agrees_with_the_rust_api() {
     }
     let tmp = std::env::temp_dir().join(format!("sightline-ffi-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).expect("temp dir");
-    let lib = library(&tmp).expect("libsightline_runtime shared library next to the test executable");
+    let lib = library(&tmp).expect("libsightline_capi shared library beside the test executable");
+    if cfg!(target_os = "linux")
+        && let Ok(elf) = Command::new("readelf").arg("-d").arg(&lib).output()
+    {
+        let dynamic = String::from_utf8_lossy(&elf.stdout);
+        assert!(dynamic.contains("Library soname: [libsightline.so.0]"), "SONAME: {dynamic}");
+    }
     let src = tmp.join("prog.c");
     std::fs::write(&src, PROGRAM).expect("write C source");
     let include = sightline_tests::workspace_root().join("runtime/include");
-    let prog = tmp.join("prog");
-    let cc = Command::new("cc")
-        .arg(&src)
-        .arg("-std=c99")
-        .arg("-Wall")
-        .arg("-Werror")
-        .arg(format!("-I{}", include.display()))
-        .arg(&lib)
-        .arg(format!("-Wl,-rpath,{}", tmp.display()))
-        .arg("-o")
-        .arg(&prog)
-        .output()
-        .expect("run cc");
-    assert!(cc.status.success(), "cc failed: {}", String::from_utf8_lossy(&cc.stderr));
+    // The program against the shared library, and (Linux) against the static one with the system
+    // libraries `sightline.pc.in` lists in `Libs.private`.
+    let compile = |lib: &Path, out: &Path, extra: &[&str]| {
+        let cc = Command::new("cc")
+            .arg(&src)
+            .arg("-std=c99")
+            .arg("-Wall")
+            .arg("-Werror")
+            .arg(format!("-I{}", include.display()))
+            .arg(lib)
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .expect("run cc");
+        assert!(cc.status.success(), "cc failed: {}", String::from_utf8_lossy(&cc.stderr));
+    };
+    let rpath = format!("-Wl,-rpath,{}", tmp.display());
+    let mut programs = vec![tmp.join("prog")];
+    compile(&lib, &programs[0], &[&rpath]);
+    if cfg!(target_os = "linux") {
+        let built = lib.parent().expect("dir").join("libsightline.a");
+        let exe = std::env::current_exe().expect("exe");
+        let dir = exe.parent().expect("dir");
+        let src = [dir.join("libsightline_capi.a"), dir.join("deps").join("libsightline_capi.a")]
+            .into_iter()
+            .find(|p| p.is_file())
+            .expect("libsightline_capi.a beside the test executable");
+        std::fs::copy(src, &built).expect("copy the static library");
+        programs.push(tmp.join("prog-static"));
+        compile(&built, &programs[1], &["-lpthread", "-ldl", "-lm"]);
+    }
 
     // A level built here, written as .slvl.
     let level = synth::grid_level([6, 5, 2], 64.0, true, |x, y, _| x == 3 && y != 2);
@@ -111,23 +356,37 @@ fn c_program_agrees_with_the_rust_api() {
     if let Some(maps) = sightline_tests::shared_maps() {
         let bsp = maps.join("ericw/e1m1.vis.bsp");
         let world = load::load_path(&bsp).expect("e1m1 loads");
+        // Far outside a sealed map is solid.
+        assert_eq!(world.leaf_contents(world.leaf_at(Vec3::splat(1.0e6))).map(|c| c.code()), Some(-2));
         cases.push((bsp, world, Vec3::new(480.0, -352.0, 88.0)));
     }
-    for (path, world, eye) in cases {
-        let run = Command::new(&prog)
-            .arg(&path)
-            .args([eye.x, eye.y, eye.z].map(|v| v.to_string()))
-            .output()
-            .expect("run the C program");
-        assert!(
-            run.status.success(),
-            "C program failed ({:?}): {}",
-            run.status,
-            String::from_utf8_lossy(&run.stderr)
-        );
-        let got = String::from_utf8_lossy(&run.stdout).to_string();
-        assert_eq!(got, expected(&world, eye), "{}", path.display());
-        assert!(got.lines().nth(2).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
+    for (path, world, eye) in &cases {
+        let want = expected(world, *eye);
+        for prog in &programs {
+            let run = Command::new(prog)
+                .arg(path)
+                .args([eye.x, eye.y, eye.z].map(|v| v.to_string()))
+                .output()
+                .expect("run the C program");
+            let what = format!("{} on {}", prog.display(), path.display());
+            assert!(
+                run.status.success(),
+                "{what} failed ({:?}): {}",
+                run.status,
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let got = String::from_utf8_lossy(&run.stdout).to_string();
+            for (i, (g, w)) in got.lines().zip(want.lines()).enumerate() {
+                assert_eq!(g, w, "{what} line {}", i + 1);
+            }
+            assert_eq!(got.lines().count(), want.lines().count(), "{what}");
+            assert!(got.lines().nth(3).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
+            // The eye is in open space, and a leaf-contents code tells C about solid.
+            assert!(got.contains("\ncontents -1 "), "{what}");
+            let solid =
+                got.lines().filter(|l| l.starts_with('L') && l.split(' ').nth(1) == Some("-2")).count();
+            assert!(solid > 0, "solid leaves are reported as such: {what}");
+        }
     }
     let _ = std::fs::remove_dir_all(&tmp);
 }
