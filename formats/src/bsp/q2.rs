@@ -180,28 +180,16 @@ pub fn read_header(bytes: &[u8]) -> Result<[LumpEntry; NUM_LUMPS], BspError> {
 /// Parses and validates a Quake 2 BSP as far as vis needs it (see the module docs).
 pub fn read(bytes: &[u8]) -> Result<Q2Bsp, BspError> {
     let lumps = read_header(bytes)?;
-    let leaves = lumps[lump::LEAVES];
-    if !leaves.length.is_multiple_of(LEAF_BYTES) {
-        return Err(BspError::LumpSize {
-            offset: leaves.offset,
-            name: "leaves",
-            length: leaves.length,
-            record: LEAF_BYTES,
-        });
-    }
-    let leaf_data = bytes.get(leaves.offset..leaves.end()).unwrap_or_default();
-    let leaf_clusters: Vec<i32> = leaf_data
-        .chunks_exact(LEAF_BYTES)
-        .map(|rec| i32::from(i16::from_le_bytes([rec[4], rec[5]])))
-        .collect();
-    for (i, &c) in leaf_clusters.iter().enumerate() {
+    let mut leaf_clusters = Vec::new();
+    for (i, (at, mut r)) in
+        super::parse::lump_records(bytes, &lumps, &lump::NAMES, lump::LEAVES, LEAF_BYTES)?.enumerate()
+    {
+        let _contents = r.i32();
+        let c = i32::from(r.i16());
         if c < -1 {
-            return Err(invalid(
-                leaves.offset + i * LEAF_BYTES + 4,
-                format!("leaf {i}"),
-                format!("cluster {c}"),
-            ));
+            return Err(invalid(at + 4, format!("leaf {i}"), format!("cluster {c}")));
         }
+        leaf_clusters.push(c);
     }
     let vis_entry = lumps[lump::VISIBILITY];
     let vis = if vis_entry.length == 0 {
@@ -215,7 +203,7 @@ pub fn read(bytes: &[u8]) -> Result<Q2Bsp, BspError> {
             leaf_clusters.iter().enumerate().find(|&(_, &c)| c >= 0 && c as usize >= v.num_clusters)
     {
         return Err(invalid(
-            leaves.offset + i * LEAF_BYTES + 4,
+            lumps[lump::LEAVES].offset + i * LEAF_BYTES + 4,
             format!("leaf {i}"),
             format!("cluster {c} >= the {} clusters of the visibility lump", v.num_clusters),
         ));

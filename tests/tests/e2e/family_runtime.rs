@@ -26,6 +26,25 @@ fn sees(world: &World, from: [f32; 3], to: [f32; 3]) -> bool {
     row.get(cb as usize)
 }
 
+/// Copies `bsp` and `prt` into a fresh folder as `name.bsp` / `name.prt` and vises the copy with
+/// two threads; returns the folder and the vised `.bsp`.
+fn vised_copy(bsp: &Path, prt: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("sightline-family-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let ours = dir.join(format!("{name}.bsp"));
+    std::fs::copy(bsp, &ours).expect("copy .bsp");
+    std::fs::copy(prt, dir.join(format!("{name}.prt"))).expect("copy .prt");
+    let args = sightline::cmd::vis::Args {
+        input: ours.clone(),
+        threads: 2,
+        no_progress: true,
+        json: true,
+        ..Default::default()
+    };
+    sightline::cmd::vis::run(&args).expect("vis");
+    (dir, ours)
+}
+
 #[test]
 fn quake2_worlds_answer_the_reference_assertions_and_expose_the_phs() {
     let (Some(ericw), Some(raw), Some(prt)) = (
@@ -36,19 +55,7 @@ fn quake2_worlds_answer_the_reference_assertions_and_expose_the_phs() {
         return;
     };
     // Our own vis output too.
-    let dir = std::env::temp_dir().join(format!("sightline-family-q2-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let ours = dir.join("q2_detail_leak_test.bsp");
-    std::fs::copy(&raw, &ours).expect("copy .bsp");
-    std::fs::copy(&prt, dir.join("q2_detail_leak_test.prt")).expect("copy .prt");
-    let args = sightline::cmd::vis::Args {
-        input: ours.clone(),
-        threads: 2,
-        no_progress: true,
-        json: true,
-        ..Default::default()
-    };
-    sightline::cmd::vis::run(&args).expect("q2 vis");
+    let (dir, ours) = vised_copy(&raw, &prt, "q2_detail_leak_test");
 
     // ericw-tools' tests/test_vis.cc, vis.detailLeakTest (ericw-testmaps/assertions.json).
     let item_enviro = [48.0, 464.0, 32.0];
@@ -154,19 +161,7 @@ fn info_reports_the_published_counts_of_quake2_and_half_life_files() {
 #[test]
 fn our_quake2_vis_has_no_miss_by_ray_sampling() {
     let (Some(raw), Some(prt)) = (shared("q2/dm2.bsp"), shared("q2/dm2.prt")) else { return };
-    let dir = std::env::temp_dir().join(format!("sightline-family-q2-dm2-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let ours = dir.join("dm2.bsp");
-    std::fs::copy(&raw, &ours).expect("copy .bsp");
-    std::fs::copy(&prt, dir.join("dm2.prt")).expect("copy .prt");
-    let args = sightline::cmd::vis::Args {
-        input: ours.clone(),
-        threads: 2,
-        no_progress: true,
-        json: true,
-        ..Default::default()
-    };
-    sightline::cmd::vis::run(&args).expect("q2 vis");
+    let (dir, ours) = vised_copy(&raw, &prt, "dm2");
     let level = sightline_validate::load::load_level(&ours).expect("level");
     assert_eq!(level.num_clusters, 869);
     let pvs = level_pvs(&level).expect("pvs");
