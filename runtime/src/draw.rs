@@ -15,7 +15,7 @@
 //! - **Light maps**: `FaceDraw::light_offset` is a byte offset into the source BSP's lighting lump
 //!   (the level does not carry light maps); -1 and Sightline's own compiles have none.
 //! - **Models**: model 0 is the world; models `1..` are brush entities (doors, lifts) whose faces
-//!   are the range [`Model::faces`]. Their placement in the game comes from their entity
+//!   are the range [`BrushModel::faces`]. Their placement in the game comes from their entity
 //!   (`"model" "*N"` in [`DrawData::entities`], with its `origin` key when the model rotates).
 
 use std::ops::Range;
@@ -42,7 +42,7 @@ pub struct FaceView<'a> {
 
 /// A brush model: the world (model 0) or a brush entity.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Model {
+pub struct BrushModel {
     /// Smallest corner of its bounds, world units (where the model sits as compiled).
     pub mins: Vec3A,
     /// Largest corner of its bounds.
@@ -68,7 +68,7 @@ pub struct DrawData {
     draw: Vec<FaceDraw>,
     textures: Vec<String>,
     texture_sizes: Vec<[u32; 2]>,
-    models: Vec<Model>,
+    models: Vec<BrushModel>,
     entities: String,
     /// Faces of each cluster's world leaves, each once, ascending.
     cluster_faces: Csr,
@@ -98,7 +98,7 @@ impl DrawData {
         let models = level
             .models
             .iter()
-            .map(|m| Model {
+            .map(|m| BrushModel {
                 mins: Vec3A::from_array(m.mins),
                 maxs: Vec3A::from_array(m.maxs),
                 faces: m.first_face..m.first_face.saturating_add(m.num_faces),
@@ -175,7 +175,7 @@ impl DrawData {
     }
 
     /// The brush models; model 0 is the world.
-    pub fn models(&self) -> &[Model] {
+    pub fn models(&self) -> &[BrushModel] {
         &self.models
     }
 

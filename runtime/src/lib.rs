@@ -51,7 +51,7 @@ pub mod walk;
 pub mod world;
 
 pub use camera::{Camera, ClipDepth, Frustum, View};
-pub use draw::{DrawData, FaceView, Model};
+pub use draw::{BrushModel, DrawData, FaceView};
 pub use error::{GvsError, LoadError};
 pub use gvs_cells::GvsCells;
 pub use pvs::Bitset;
