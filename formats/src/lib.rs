@@ -15,10 +15,12 @@
 pub mod atomic;
 pub mod bits;
 pub mod bsp;
+pub mod entities;
 pub mod geom;
 pub mod kind;
 mod le;
 pub mod level;
+mod lexer;
 #[cfg(feature = "map")]
 pub mod map;
 #[cfg(feature = "obj")]

@@ -4,7 +4,8 @@
 //! of the brush (see [`crate::geom`]); the brush is the intersection of the half-spaces behind its
 //! planes.
 //!
-//! [`parse`] reads the text with Quake's tokenizing rules (see `lexer`), decides each side's syntax
+//! [`parse`] reads the text with Quake's tokenizing rules (`crate::lexer`, shared with
+//! [`crate::entities`]), decides each side's syntax
 //! on its own, and rejects anything a compiler could not use, with `file:line:col` and the entity,
 //! brush and side (0-based, file order) in the [`MapError`]. Parsing never panics and allocates only
 //! what the text justifies (every entity, brush and side consumes tokens of the text).
@@ -21,11 +22,8 @@
 
 use glam::DVec3;
 
-mod lexer;
-
-use lexer::{Lexer, Token, Unterminated};
-
 use crate::geom::{Aabb, ON_EPSILON, Plane, WORLD_LIMIT, Winding};
+use crate::lexer::{Lexer, Token, Unterminated};
 
 /// Which brush-side syntax the file uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,5 +1,6 @@
-//! The `.map` tokenizer: whitespace-separated words, `"quoted strings"` and `//` comments, each
-//! token with its 1-based line and column.
+//! Quake's tokenizer, shared by the `.map` parser and the entity-text parser
+//! ([`crate::entities`]): whitespace-separated words, `"quoted strings"` and `//` comments, each
+//! token with its 1-based line and column and its byte offset.
 //!
 //! Like Quake's own parsers, any byte `<= b' '` separates tokens, a `//` at the start of a token
 //! comments out the rest of the line, and a quoted string runs to the next `"` (no escapes) on the
@@ -8,7 +9,7 @@
 
 /// One token.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Token<'a> {
+pub(crate) struct Token<'a> {
     /// The text, without quotes for a quoted string.
     pub text: &'a str,
     /// Whether the token was a quoted string.
@@ -17,20 +18,24 @@ pub(super) struct Token<'a> {
     pub line: u32,
     /// 1-based column (in characters).
     pub col: u32,
+    /// Byte offset of its first byte (the opening quote of a quoted string) in the text.
+    pub offset: usize,
 }
 
 /// A lexing failure: an unterminated quoted string at `line:col`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Unterminated {
+pub(crate) struct Unterminated {
     /// 1-based line of the opening quote.
     pub line: u32,
     /// 1-based column of the opening quote.
     pub col: u32,
+    /// Byte offset of the opening quote.
+    pub offset: usize,
 }
 
 /// The tokenizer with one token of look-ahead.
 #[derive(Debug)]
-pub(super) struct Lexer<'a> {
+pub(crate) struct Lexer<'a> {
     text: &'a str,
     pos: usize,
     line: u32,
@@ -46,11 +51,13 @@ impl<'a> Lexer<'a> {
     }
 
     /// The line and column just past the last byte read (used to report end-of-file errors).
+    #[cfg(feature = "map")]
     pub fn end_position(&self) -> (u32, u32) {
         (self.line, self.col)
     }
 
     /// The next token without consuming it; `Ok(None)` at end of input.
+    #[cfg(feature = "map")]
     pub fn peek(&mut self) -> Result<Option<Token<'a>>, Unterminated> {
         if self.peeked.is_none() {
             self.peeked = Some(self.scan());
@@ -101,7 +108,7 @@ impl<'a> Lexer<'a> {
         let Some(&first) = bytes.get(self.pos) else {
             return Ok(None);
         };
-        let (line, col) = (self.line, self.col);
+        let (line, col, offset) = (self.line, self.col, self.pos);
         if first == b'"' {
             self.bump(first);
             let start = self.pos;
@@ -109,14 +116,14 @@ impl<'a> Lexer<'a> {
                 if b == b'"' {
                     let text = self.text.get(start..self.pos).unwrap_or("");
                     self.bump(b);
-                    return Ok(Some(Token { text, quoted: true, line, col }));
+                    return Ok(Some(Token { text, quoted: true, line, col, offset }));
                 }
                 if b == b'\n' {
                     break;
                 }
                 self.bump(b);
             }
-            return Err(Unterminated { line, col });
+            return Err(Unterminated { line, col, offset });
         }
         let start = self.pos;
         while let Some(&b) = bytes.get(self.pos) {
@@ -127,7 +134,7 @@ impl<'a> Lexer<'a> {
         }
         // `start..pos` begins and ends at ASCII bytes or the end of text, so it is a char boundary.
         let text = self.text.get(start..self.pos).unwrap_or("");
-        Ok(Some(Token { text, quoted: false, line, col }))
+        Ok(Some(Token { text, quoted: false, line, col, offset }))
     }
 }
 
@@ -167,16 +174,21 @@ mod tests {
     fn columns_count_characters() {
         let toks = all("\"é\" x");
         assert_eq!(toks[1], ("x".to_string(), false, 1, 5));
+        // Offsets count bytes.
+        let mut lx = Lexer::new("\"é\" x");
+        assert_eq!(lx.next_token().unwrap().map(|t| t.offset), Some(0));
+        assert_eq!(lx.next_token().unwrap().map(|t| t.offset), Some(5));
     }
 
     #[test]
     fn unterminated_string_is_an_error() {
         let mut lx = Lexer::new("{\n  \"abc\n\"");
         assert!(lx.next_token().unwrap().is_some());
-        assert_eq!(lx.next_token(), Err(Unterminated { line: 2, col: 3 }));
+        assert_eq!(lx.next_token(), Err(Unterminated { line: 2, col: 3, offset: 4 }));
     }
 
     #[test]
+    #[cfg(feature = "map")]
     fn peek_does_not_consume() {
         let mut lx = Lexer::new("a b");
         assert_eq!(lx.peek().unwrap().map(|t| t.text), Some("a"));
