@@ -23,12 +23,17 @@
 //!   a leaf is see-through here: a validator may then report sight lines through it that no
 //!   Quake 2 vis claims (stricter, never looser).
 //! - Textures: one level texture per texinfo (its name), so a face's texture is its texinfo.
+//! - Draw data: `face_draw[i]` is face `i`'s texinfo (s/t axes and offsets in texels, Quake 2's
+//!   `SURF_*` flags; zero axes when one is not finite) with the face's light styles and lighting
+//!   offset. The texinfo's `value` (light emission) and `nexttexinfo` (animation chain) are not
+//!   kept. `texture_sizes` is empty: Quake 2 textures are external `.wal` files (their width and
+//!   height are in the `.wal` header), so the level does not know their sizes.
 
 use super::{LEAF_BYTES, Q2Bsp, lump};
 use crate::bsp::BspError;
 use crate::bsp::convert::Polygons;
 use crate::bsp::parse::{check_index, check_range, invalid, lump_records, non_negative};
-use crate::level::{Contents, Leaf, Level, Model, Node};
+use crate::level::{Contents, FaceDraw, Leaf, Level, Model, Node};
 use crate::tree_check::find_cycle;
 
 /// Lump indices beyond the ones vis needs.
@@ -75,6 +80,8 @@ struct RawFace {
     first_edge: u32,
     num_edges: u32,
     texinfo: u32,
+    styles: [u8; 4],
+    light_offset: i32,
 }
 
 /// Reads a whole Quake 2 BSP (`bytes`, already read as `file` by [`super::read`]) into a
@@ -118,12 +125,19 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         check_index(at, "surfedge", i, e.unsigned_abs().into(), edges.len(), "edges")?;
     }
     let mut texture_names = Vec::new();
+    let mut texinfo = Vec::new();
     for (_, mut r) in recs(more::TEXINFO, 76)? {
-        let _axes: [u8; 40] = r.take();
+        let s = [r.f32(), r.f32(), r.f32(), r.f32()];
+        let t = [r.f32(), r.f32(), r.f32(), r.f32()];
+        let flags = r.i32() as u32;
         let _value: [u8; 4] = r.take();
         let name: [u8; 32] = r.take();
         let len = name.iter().position(|&b| b == 0).unwrap_or(name.len());
         texture_names.push(String::from_utf8_lossy(&name[..len]).into_owned());
+        // As for Quake 1: a non-finite axis is "no projection", not a level that fails validation.
+        let finite = s.iter().chain(&t).all(|v| v.is_finite());
+        let (s, t) = if finite { (s, t) } else { ([0.0; 4], [0.0; 4]) };
+        texinfo.push(FaceDraw { flags, s, t, ..FaceDraw::NONE });
     }
     let mut faces = Vec::new();
     for (at, mut r) in recs(more::FACES, 20)? {
@@ -133,13 +147,14 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         let first_edge = non_negative(at, "face", i, "first edge", r.i32())?;
         let num_edges = u32::from(r.u16());
         let texinfo = u32::from(r.u16());
+        let (styles, light_offset) = (r.take::<4>(), r.i32());
         check_index(at, "face", i, plane.into(), planes.len(), "planes")?;
         check_index(at, "face", i, texinfo.into(), texture_names.len(), "texinfo")?;
         if num_edges < 3 {
             return Err(invalid(at, format!("face {i}"), format!("{num_edges} edges")));
         }
         check_range(at, "face", i, first_edge.into(), num_edges.into(), surfedges.len(), "surfedges")?;
-        faces.push(RawFace { plane, back, first_edge, num_edges, texinfo });
+        faces.push(RawFace { plane, back, first_edge, num_edges, texinfo, styles, light_offset });
     }
     // Compilers give each face its own edge list; faces sharing lists could make the corners
     // (copied per face) grow with faces × surfedges from a small file.
@@ -216,6 +231,13 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         return Err(invalid(lumps[more::MODELS].offset, "models", "no world model"));
     }
 
+    let face_draw = faces
+        .iter()
+        .map(|f| {
+            let info = texinfo.get(f.texinfo as usize).copied().unwrap_or(FaceDraw::NONE);
+            FaceDraw { styles: f.styles, light_offset: f.light_offset, ..info }
+        })
+        .collect();
     let mut polygons = Polygons::new(planes.into_iter(), faces.len());
     for f in &faces {
         let first = f.first_edge as usize;
@@ -253,8 +275,8 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         pvs_data,
         gvs_cells: Vec::new(),
         gvs_faces: Vec::new(),
-        // Quake 2 draw data (texinfo axes, light maps) is not carried over yet.
-        face_draw: Vec::new(),
+        face_draw,
+        // Quake 2 textures are external `.wal` files: the BSP does not size them.
         texture_sizes: Vec::new(),
     })
 }
