@@ -1,9 +1,10 @@
 //! Per-frame culling cost of each backend on 256 fixed random poses: E1M1 (ericw-tools' build,
 //! with its `.prt` for the portal backend) when the shared maps are present, else a synthetic
 //! grid level. Every pose is a new eye position, so the PVS backend decodes and marks each frame.
+//! The PVS backend is also measured with back faces culled in the walk and in a pass after it.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sightline_runtime::backend;
+use sightline_runtime::backend::{self, Backend};
 use sightline_runtime::{Scratch, Visible, World, load, poses, synth};
 
 fn world() -> (String, World) {
@@ -38,6 +39,31 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // Back-face culling: in the walk (`View::cull_back_faces`), and as a pass after it.
+    let culled: Vec<_> = views.iter().map(|v| v.with_back_face_culling(true)).collect();
+    let mut scratch = Scratch::new(&world);
+    let mut out = Visible::for_world(&world);
+    group.bench_function("pvs+backfaces-in-walk", |bench| {
+        bench.iter(|| {
+            let mut total = 0;
+            for view in &culled {
+                backend::pvs::Pvs.cull(&world, view, &mut scratch, &mut out);
+                total += out.faces.len();
+            }
+            total
+        })
+    });
+    group.bench_function("pvs+backfaces-after", |bench| {
+        bench.iter(|| {
+            let mut total = 0;
+            for view in &views {
+                backend::pvs::Pvs.cull(&world, view, &mut scratch, &mut out);
+                world.cull_back_faces(view.eye, &mut out.faces);
+                total += out.faces.len();
+            }
+            total
+        })
+    });
     group.finish();
 }
 

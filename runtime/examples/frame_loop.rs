@@ -1,23 +1,21 @@
 //! An engine's frame loop with sightline-runtime: load once, then every frame move the camera
-//! (tracing so it never walks into solid), cull with a reused scratch and output lists, drop back
-//! faces, and draw front to back with the draw data. Run with a level or BSP path, e.g.
+//! (tracing so it never walks into solid), cull with a reused scratch and output lists (back
+//! faces dropped by the walk), and draw front to back with the draw data. Run with a level or BSP path, e.g.
 //! `cargo run --release -p sightline-runtime --features testkit --example frame_loop -- ../shared/maps/ericw/e1m1.vis.bsp`
 //! (without an argument it builds a small grid level in memory).
 
 use std::time::Instant;
 
 use glam::Vec3;
+use sightline_formats::entities::Entity;
 use sightline_runtime::backend;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, synth};
 
-/// The `origin` of the first `info_player_start` in Quake entity text, if any. (Entity text is
-/// `{ "key" "value" ... }` blocks; an engine has its own entity parser.)
-fn player_start(entities: &str) -> Option<Vec3> {
-    entities.split('}').find(|block| block.contains("\"info_player_start\"")).and_then(|block| {
-        let value = block.split("\"origin\"").nth(1)?.split('"').nth(1)?;
-        let v: Vec<f32> = value.split_whitespace().filter_map(|c| c.parse().ok()).collect();
-        (v.len() == 3).then(|| Vec3::new(v[0], v[1], v[2]))
-    })
+/// The `origin` of the first `info_player_start` among the level's entities, if it has a
+/// well-formed one.
+fn player_start(entities: &[Entity]) -> Option<Vec3> {
+    let start = entities.iter().find(|e| e.classname() == "info_player_start")?;
+    start.origin()?.ok().map(Vec3::from_array)
 }
 
 /// The centre of the largest open leaf that is not sky: a start for levels without entities.
@@ -47,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let draw = world.draw();
 
     let mut position =
-        player_start(draw.entities()).or_else(|| largest_open_leaf(&world)).ok_or("no open leaf")?;
+        player_start(draw.entity_list()).or_else(|| largest_open_leaf(&world)).ok_or("no open leaf")?;
     println!("start at {position:?} (leaf {})", world.leaf_at(position));
     let (mut yaw, mut blocked, step) = (0.0f32, 0usize, 8.0f32);
     let (mut drawn_faces, t0) = (0usize, Instant::now());
@@ -63,10 +61,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let camera = Camera::quake(position, yaw, 0.0);
 
-        // Culling: the eye cluster's PVS (kept as a tree since load), then the frustum walk, then
-        // the faces turned away from the eye.
-        pvs.cull(&world, &camera.view(), &mut scratch, &mut visible);
-        world.cull_back_faces(position, &mut visible.faces);
+        // Culling: the eye cluster's PVS (kept as a tree since load), then the frustum walk,
+        // which also leaves out the faces turned away from the eye.
+        let view = camera.view().with_back_face_culling(true);
+        pvs.cull(&world, &view, &mut scratch, &mut visible);
         // Drawing: faces arrive nearest first (good for early-z); each has its corners, texture
         // and texture axes in `draw`.
         for &f in &visible.faces {

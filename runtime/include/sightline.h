@@ -78,6 +78,7 @@ typedef struct SlFace {
     float dist;            /* normal . p for points on the face */
     uint32_t texture;      /* texture index */
     uint32_t num_vertices; /* see sl_face_vertices */
+    uint32_t first_vertex; /* its vertices in sl_world_vertices: first_vertex..+num_vertices */
     int32_t has_draw;      /* 0: no texture projection (s, t, flags zero, styles 255, light -1) */
     float s[4];
     float t[4];
@@ -86,12 +87,14 @@ typedef struct SlFace {
     int32_t light_offset;  /* byte offset in the source BSP's lighting lump; -1 for none */
 } SlFace;
 
-/* A brush model: bounds as compiled and its faces first_face..first_face + num_faces. */
+/* A brush model: bounds as compiled, its faces first_face..first_face + num_faces, and the
+   origin of the entity whose "model" is "*N" (where the engine places it; zero when none). */
 typedef struct SlModel {
     float mins[3];
     float maxs[3];
     uint32_t first_face;
     uint32_t num_faces;
+    float origin[3];
 } SlModel;
 
 /* The crate version, "MAJOR.MINOR.PATCH" (static). */
@@ -150,6 +153,9 @@ int sl_face(const SlWorld *world, uint32_t face, SlFace *out);
  * Buffer protocol, counted in vertices. */
 int sl_face_vertices(const SlWorld *world, uint32_t face, float *out_xyz, size_t capacity,
                      size_t *out_count);
+/* Every face's vertices in one array (x, y, z triples; a face's are num_vertices from its
+ * first_vertex), for one vertex buffer. Buffer protocol, counted in vertices. */
+int sl_world_vertices(const SlWorld *world, float *out_xyz, size_t capacity, size_t *out_count);
 /* Texture name, owned by the world ("" for a texture missing from a BSP); NULL when out of
  * range (sl_last_error says why). */
 const char *sl_texture_name(const SlWorld *world, uint32_t texture);

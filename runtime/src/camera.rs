@@ -54,7 +54,7 @@ impl Camera {
 
     /// The view for culling.
     pub fn view(&self) -> View {
-        View { eye: self.position.into(), frustum: Frustum::from_camera(self) }
+        View { eye: self.position.into(), frustum: Frustum::from_camera(self), cull_back_faces: false }
     }
 }
 
@@ -207,19 +207,28 @@ impl Frustum {
     }
 }
 
-/// What a backend needs for one frame: the eye and the frustum.
+/// What a backend needs for one frame: the eye, the frustum and whether to drop back faces.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct View {
     /// Eye position (the apex of the frustum).
     pub eye: Vec3A,
     /// The view frustum.
     pub frustum: Frustum,
+    /// Leave out faces whose plane the eye is more than [`crate::query::BACKFACE_EPSILON`]
+    /// behind (the rule of [`crate::World::cull_back_faces`]), decided as the walk outputs each
+    /// face. Off in the constructors; turn it on with [`View::with_back_face_culling`].
+    pub cull_back_faces: bool,
 }
 
 impl View {
     /// A view from an eye position and a view-projection matrix.
     pub fn from_view_projection(eye: Vec3, m: Mat4, depth: ClipDepth) -> Self {
-        Self { eye: eye.into(), frustum: Frustum::from_view_projection(m, depth) }
+        Self { eye: eye.into(), frustum: Frustum::from_view_projection(m, depth), cull_back_faces: false }
+    }
+
+    /// This view with back-face culling on or off ([`View::cull_back_faces`]).
+    pub fn with_back_face_culling(self, on: bool) -> Self {
+        Self { cull_back_faces: on, ..self }
     }
 }
 

@@ -4,6 +4,7 @@
 use glam::Vec3A;
 
 use crate::camera::{Frustum, View};
+use crate::query::front_or_near;
 use crate::scratch::Visible;
 use crate::world::{LeafId, World};
 
@@ -108,7 +109,8 @@ pub fn order_violations(
 /// the level's own node and leaf tables, marks recomputed from scratch (a leaf is marked when
 /// `marked(leaf)`, a node when some open leaf below it is), each box tested plane by plane in
 /// scalar code with the plane mask passed down, near child (the eye's side, front when on the
-/// plane) first, each face output at its first leaf. Slow; for tests.
+/// plane) first, each face output at its first leaf unless [`View::cull_back_faces`] drops it.
+/// Slow; for tests.
 pub fn reference_walk(world: &World, view: &View, marked: &dyn Fn(LeafId) -> bool) -> Visible {
     let mut out = Visible::default();
     let mut seen = std::collections::HashSet::new();
@@ -182,7 +184,7 @@ fn reference_visit(
         }
         out.leaves.push(l);
         for &f in world.leaf_faces(l) {
-            if seen.insert(f) {
+            if seen.insert(f) && (!view.cull_back_faces || front_or_near(world.draw(), f, view.eye)) {
                 out.faces.push(f);
             }
         }

@@ -15,14 +15,19 @@
 //! - **Light maps**: `FaceDraw::light_offset` is a byte offset into the source BSP's lighting lump
 //!   (the level does not carry light maps); -1 and Sightline's own compiles have none.
 //! - **Models**: model 0 is the world; models `1..` are brush entities (doors, lifts) whose faces
-//!   are the range [`BrushModel::faces`]. Their placement in the game comes from their entity
-//!   (`"model" "*N"` in [`DrawData::entities`], with its `origin` key when the model rotates).
+//!   are the range [`BrushModel::faces`]. [`BrushModel::origin`] is the `origin` of the entity
+//!   whose `"model"` is `"*N"` (zero when there is none), where the engine places the model: a
+//!   model built with an origin brush (Quake 2, Quake 3, Half-Life, rotating Quake entities) is
+//!   stored around zero and placed at that origin; a model without one sits where it was built.
+//!   The entities themselves are [`DrawData::entity_list`] ([`sightline_formats::entities`]).
 
 use std::ops::Range;
 
 use glam::Vec3A;
+use sightline_formats::entities::{self, Entity};
 use sightline_formats::level::{FaceDraw, Level};
 
+use crate::error::LoadError;
 use crate::tree::{Csr, Tree};
 
 /// A face as the engine draws it; see the module docs for the conventions.
@@ -34,6 +39,9 @@ pub struct FaceView<'a> {
     pub dist: f32,
     /// Corners, clockwise seen from the front, world units.
     pub vertices: &'a [[f32; 3]],
+    /// Index of its first corner in [`DrawData::vertices`] (the corners are the next
+    /// `vertices.len()` entries there), for engines that upload one vertex buffer.
+    pub first_vertex: u32,
     /// Index of its texture ([`DrawData::texture_name`]).
     pub texture: u32,
     /// Texture projection and light map, when the level has them.
@@ -49,6 +57,9 @@ pub struct BrushModel {
     pub maxs: Vec3A,
     /// Its faces, in the face index space.
     pub faces: Range<u32>,
+    /// The `origin` of the entity whose `"model"` is `"*N"` (the last such entity), world units;
+    /// zero when no entity names the model or it has no origin.
+    pub origin: Vec3A,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -70,14 +81,26 @@ pub struct DrawData {
     texture_sizes: Vec<[u32; 2]>,
     models: Vec<BrushModel>,
     entities: String,
+    entity_list: Vec<Entity>,
     /// Faces of each cluster's world leaves, each once, ascending.
     cluster_faces: Csr,
 }
 
 impl DrawData {
     /// From a validated level and its tree (for the cluster lists). Planes come renormalised, so
-    /// a face's normal is unit length (a zero normal stays zero).
-    pub(crate) fn new(level: &Level, tree: &Tree) -> Self {
+    /// a face's normal is unit length (a zero normal stays zero). Fails when the entity text does
+    /// not parse or a brush entity's origin is not three finite numbers.
+    pub(crate) fn new(level: &Level, tree: &Tree) -> Result<Self, LoadError> {
+        let entity_list = entities::parse(&level.entities).map_err(LoadError::Entities)?;
+        let mut origins = vec![Vec3A::ZERO; level.models.len()];
+        for e in &entity_list {
+            if let Some(slot) = e.model().and_then(|m| origins.get_mut(m as usize)) {
+                *slot = match e.origin() {
+                    Some(o) => Vec3A::from_array(o.map_err(LoadError::Entities)?),
+                    None => Vec3A::ZERO,
+                };
+            }
+        }
         let faces = level
             .faces
             .iter()
@@ -98,10 +121,12 @@ impl DrawData {
         let models = level
             .models
             .iter()
-            .map(|m| BrushModel {
+            .zip(origins)
+            .map(|(m, origin)| BrushModel {
                 mins: Vec3A::from_array(m.mins),
                 maxs: Vec3A::from_array(m.maxs),
                 faces: m.first_face..m.first_face.saturating_add(m.num_faces),
+                origin,
             })
             .collect();
         let mut entries = Vec::new();
@@ -116,7 +141,7 @@ impl DrawData {
         }
         entries.sort_unstable();
         entries.dedup();
-        Self {
+        Ok(Self {
             faces,
             vertices: level.vertices.clone(),
             draw: level.face_draw.clone(),
@@ -124,8 +149,9 @@ impl DrawData {
             texture_sizes: level.texture_sizes.clone(),
             models,
             entities: level.entities.clone(),
+            entity_list,
             cluster_faces: Csr::build(tree.num_clusters as usize, &entries),
-        }
+        })
     }
 
     /// Number of faces (face indices are `0..num_faces`).
@@ -141,9 +167,16 @@ impl DrawData {
             normal: f.normal,
             dist: f.dist,
             vertices: self.vertices.get(start..start + f.num_vertices as usize).unwrap_or(&[]),
+            first_vertex: f.first_vertex,
             texture: f.texture,
             draw: self.draw.get(face as usize),
         })
+    }
+
+    /// Every face's corners in one array (world units): face `f`'s are
+    /// `vertices()[first_vertex..first_vertex + n]` ([`FaceView::first_vertex`]).
+    pub fn vertices(&self) -> &[[f32; 3]] {
+        &self.vertices
     }
 
     /// The plane of face `face` as `(normal, dist)`; `None` when out of range.
@@ -182,6 +215,12 @@ impl DrawData {
     /// The level's entity text (Quake `.map` syntax without brushes).
     pub fn entities(&self) -> &str {
         &self.entities
+    }
+
+    /// The entities of [`DrawData::entities`], parsed ([`sightline_formats::entities`]), in text
+    /// order.
+    pub fn entity_list(&self) -> &[Entity] {
+        &self.entity_list
     }
 
     /// Faces of the world leaves of `cluster`, each once, ascending (empty out of range).

@@ -66,6 +66,10 @@ pub enum LoadError {
         /// The limit.
         max: usize,
     },
+    /// The level's entity text is malformed, or a brush entity's origin is not three finite
+    /// numbers (the source names the byte offset in the entity text).
+    #[error("entity text")]
+    Entities(#[source] sightline_formats::entities::EntityError),
     /// The level's GVS cells do not fit its faces.
     #[error("GVS data")]
     Gvs(#[from] GvsError),

@@ -44,6 +44,19 @@ pub const SL_BACKEND_PORTAL: i32 = 1;
 /// An index (leaf, cluster, face, texture, model) was out of range.
 pub const SL_ERR_RANGE: SlStatus = 6;
 
+/// Leaf contents codes of [`sl_leaf_contents`] (Quake's, as `Contents::code`): empty.
+pub const SL_CONTENTS_EMPTY: i32 = -1;
+/// Solid, and every point outside the world.
+pub const SL_CONTENTS_SOLID: i32 = -2;
+/// Water.
+pub const SL_CONTENTS_WATER: i32 = -3;
+/// Slime.
+pub const SL_CONTENTS_SLIME: i32 = -4;
+/// Lava.
+pub const SL_CONTENTS_LAVA: i32 = -5;
+/// Sky.
+pub const SL_CONTENTS_SKY: i32 = -6;
+
 /// Opaque world handle: the world, and the C strings it hands out (owned here so their pointers
 /// live as long as the world).
 #[derive(Debug)]
@@ -735,6 +748,9 @@ pub struct SlFace {
     pub texture: u32,
     /// Number of vertices ([`sl_face_vertices`]).
     pub num_vertices: u32,
+    /// Index of its first vertex in the level's vertex array ([`sl_world_vertices`]): its
+    /// vertices are the `num_vertices` entries from there.
+    pub first_vertex: u32,
     /// 1 when the level has texture projections (`s`, `t`, `flags`, `styles`, `light_offset`
     /// below); 0 when it has none and those fields are zero, styles 255 and `light_offset` -1.
     pub has_draw: i32,
@@ -771,6 +787,7 @@ pub unsafe extern "C" fn sl_face(world: *const SlWorld, face: u32, out: *mut SlF
             dist: f.dist,
             texture: f.texture,
             num_vertices: f.vertices.len() as u32,
+            first_vertex: f.first_vertex,
             has_draw: i32::from(d.is_some()),
             s: fd.s,
             t: fd.t,
@@ -805,6 +822,29 @@ pub unsafe extern "C" fn sl_face_vertices(
         let Some(f) = draw.face(face) else { return out_of_range("face", face, draw.num_faces()) };
         // SAFETY: forwarded contract; `[f32; 3]` has the alignment of `f32`.
         unsafe { write_list(f.vertices, out_xyz.cast::<[f32; 3]>(), capacity, out_count) }
+    })
+}
+
+/// Every face's vertices in one array, world units, as `x, y, z` float triples (face `f`'s are
+/// the `num_vertices` from its `first_vertex`, see [`SlFace`]): writes at most `capacity`
+/// vertices (`3 * capacity` floats) to `out_xyz` and the full vertex count to `out_count` (call
+/// with NULL/0 first), so C can fill one vertex buffer.
+///
+/// # Safety
+/// `world` must be a live world, `out_xyz` writable for `3 * capacity` floats (may be null when
+/// `capacity` is 0), `out_count` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_vertices(
+    world: *const SlWorld,
+    out_xyz: *mut f32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live per the contract.
+        let Some(w) = (unsafe { world.as_ref() }) else { return null_argument() };
+        // SAFETY: forwarded contract; `[f32; 3]` has the alignment of `f32`.
+        unsafe { write_list(w.world.draw().vertices(), out_xyz.cast::<[f32; 3]>(), capacity, out_count) }
     })
 }
 
@@ -871,10 +911,13 @@ pub struct SlModel {
     pub first_face: u32,
     /// Number of faces.
     pub num_faces: u32,
+    /// Where the engine places the model: the `origin` of the entity whose `"model"` is `"*N"`,
+    /// zero when none (see `BrushModel::origin`).
+    pub origin: [f32; 3],
 }
 
-/// Brush model `model` into `out` (model 0 is the world; a brush entity's placement comes from
-/// its `"model" "*N"` entity). `SL_ERR_RANGE` when `model >= sl_world_num_models`.
+/// Brush model `model` into `out` (model 0 is the world; a brush entity is placed at `origin`,
+/// from its `"model" "*N"` entity). `SL_ERR_RANGE` when `model >= sl_world_num_models`.
 ///
 /// # Safety
 /// `world` must be a live world and `out` writable.
@@ -892,6 +935,7 @@ pub unsafe extern "C" fn sl_model(world: *const SlWorld, model: u32, out: *mut S
             maxs: m.maxs.to_array(),
             first_face: m.faces.start,
             num_faces: m.faces.end - m.faces.start,
+            origin: m.origin.to_array(),
         };
         SL_OK
     })

@@ -16,6 +16,7 @@
 
 use glam::Vec3A;
 
+use crate::draw::DrawData;
 use crate::pvs::Bitset;
 use crate::tree::Tree;
 use crate::world::{LeafId, World};
@@ -27,6 +28,18 @@ pub const BOX_EPSILON: f32 = 1.0 / 32.0;
 
 /// How far, in world units, the eye may be behind a face's plane and still keep the face.
 pub const BACKFACE_EPSILON: f32 = 1.0 / 32.0;
+
+/// True when face `face` is kept by back-face culling from `eye`: the eye is on its front, or
+/// at most [`BACKFACE_EPSILON`] behind its plane, or the test is NaN, or the face is out of
+/// range. The one copy of the rule (the walk, the reference walk and
+/// [`World::cull_back_faces`] call it).
+#[inline(always)]
+pub(crate) fn front_or_near(draw: &DrawData, face: u32, eye: Vec3A) -> bool {
+    draw.face_plane(face).is_none_or(|(n, d)| {
+        let side = n.dot(eye) - d;
+        side.is_nan() || side >= -BACKFACE_EPSILON
+    })
+}
 
 /// Centre and half-size of the box spanning `a` and `b`.
 fn center_extent(a: Vec3A, b: Vec3A) -> (Vec3A, Vec3A) {
@@ -77,17 +90,12 @@ impl World {
 
     /// Drop from `faces` (face indices, as [`crate::Visible::faces`]) every face whose plane
     /// faces away from `eye` by more than [`BACKFACE_EPSILON`]; keeps the order and the faces out
-    /// of range (the engine decides about those). Run it after a walk:
-    /// `world.cull_back_faces(view.eye, &mut visible.faces)`.
+    /// of range (the engine decides about those). The walk applies the same rule as it outputs
+    /// faces when [`crate::View::cull_back_faces`] is set, which saves this pass.
     pub fn cull_back_faces(&self, eye: impl Into<Vec3A>, faces: &mut Vec<u32>) {
         let eye = eye.into();
         let draw = self.draw();
-        faces.retain(|&f| {
-            draw.face_plane(f).is_none_or(|(n, d)| {
-                let side = n.dot(eye) - d;
-                side.is_nan() || side >= -BACKFACE_EPSILON
-            })
-        });
+        faces.retain(|&f| front_or_near(draw, f, eye));
     }
 
     /// True when the box from `a` to `b` is potentially visible from `eye`: [`World::box_in_row`]

@@ -347,6 +347,7 @@ fn fast_walks_equal_the_reference_walk() {
         decoding.drop_pvs_trees();
         let (mut s1, mut s2) = (Scratch::new(&trees), Scratch::new(&decoding));
         let (mut a, mut b) = (Visible::for_world(&trees), Visible::for_world(&decoding));
+        let mut dropped = 0;
         for cam in random_cameras(&trees, seed, 400) {
             let view = cam.view();
             let marked = pvs_leaves(&trees, view.eye);
@@ -361,7 +362,20 @@ fn fast_walks_equal_the_reference_walk() {
             Portal.cull(&decoding, &view, &mut s2, &mut b);
             Pvs.cull(&decoding, &view, &mut s2, &mut b);
             assert_eq!(b, want, "decoded marks after a portal frame for {cam:?}");
+            // Back-face culling in the walk: the reference with the same culling, and the
+            // unculled output with the back faces dropped afterwards.
+            let culled_view = view.with_back_face_culling(true);
+            let culled = reference_walk(&trees, &culled_view, &|l| marked[l as usize]);
+            let mut after = want.clone();
+            trees.cull_back_faces(view.eye, &mut after.faces);
+            assert_eq!(culled, after, "culled reference vs a pass after the walk for {cam:?}");
+            Pvs.cull(&trees, &culled_view, &mut s1, &mut a);
+            Pvs.cull(&decoding, &culled_view, &mut s2, &mut b);
+            assert_eq!(a, culled, "culled PVS trees vs reference for {cam:?}");
+            assert_eq!(b, culled, "culled decoded marks vs reference for {cam:?}");
+            dropped += want.faces.len() - culled.faces.len();
         }
+        assert!(dropped > 0, "seed {seed}: some back faces were culled");
     }
 }
 
@@ -488,4 +502,35 @@ fn errors_print_each_cause_once_and_name_the_lump() {
     let e = crate::load::load_path(&missing).expect_err("missing");
     assert_eq!(error_chain(&e).matches(&missing.display().to_string()).count(), 1, "{}", error_chain(&e));
     std::fs::remove_dir_all(&dir).expect("clean up");
+}
+
+#[test]
+fn brush_models_take_the_origin_of_their_entity() {
+    use crate::error::LoadError;
+    use sightline_formats::entities::EntityError;
+    let mut level = pillars(3);
+    let world_model = level.models[0];
+    level.models.push(sightline_formats::level::Model { num_faces: 0, ..world_model });
+    level.models.push(sightline_formats::level::Model { num_faces: 0, ..world_model });
+    level.entities = "{ \"classname\" \"worldspawn\" }\n\
+                      { \"classname\" \"func_rotating\" \"model\" \"*1\" \"origin\" \"1 2 -82\" }\n\
+                      { \"classname\" \"func_door\" \"model\" \"*2\" }\n\
+                      { \"classname\" \"func_door\" \"model\" \"*9\" \"origin\" \"5 5 5\" }\n"
+        .to_string();
+    let world = World::new(&level).expect("valid");
+    let models = world.draw().models();
+    let origins: Vec<[f32; 3]> = models.iter().map(|m| m.origin.to_array()).collect();
+    assert_eq!(origins, [[0.0; 3], [1.0, 2.0, -82.0], [0.0; 3]], "a model no entity names keeps zero");
+    assert_eq!(world.draw().entity_list().len(), 4);
+    assert_eq!(world.draw().entity_list()[1].classname(), "func_rotating");
+    // A brush entity's origin that is not three finite numbers, and text that does not parse,
+    // refuse the level with the byte offset.
+    let rotating = level.entities.find("{ \"classname\" \"func_rotating\"").expect("entity");
+    level.entities = level.entities.replace("1 2 -82", "1 nan -82");
+    match World::new(&level) {
+        Err(LoadError::Entities(EntityError::BadOrigin { offset, .. })) => assert_eq!(offset, rotating),
+        other => panic!("bad origin accepted: {other:?}"),
+    }
+    level.entities = "{ \"classname\" \"worldspawn\"".to_string();
+    assert!(matches!(World::new(&level), Err(LoadError::Entities(EntityError::Unclosed { offset: 0 }))));
 }

@@ -12,14 +12,22 @@
 //! branch-free eight-lane box test per child (the two tests are independent), and branch-free
 //! pushes of the children that pass.
 //!
+//! With [`View::cull_back_faces`] a face is output only when the eye is not more than
+//! [`crate::query::BACKFACE_EPSILON`] behind its plane (tested where the face is output, so there
+//! is no second pass; a culled shared face is still output by no other leaf).
+//!
 //! **Invariant:** both walks (over a cluster's PVS tree and over a mark set) output exactly what
 //! `check::reference_walk` (feature `testkit`: recursive, scalar, over the level's own tables)
-//! outputs: the same leaves, faces and order. Tested on synthetic grids and on random poses of
+//! outputs with the same view (back-face culling included): the same leaves, faces and order. Tested on synthetic grids and on random poses of
 //! real maps.
 
+use glam::Vec3A;
+
 use crate::camera::{Frustum, View};
+use crate::draw::DrawData;
 use crate::layout::{MarkSet, SHARED_FACE, WalkTree};
 use crate::pvs::ClusterTrees;
+use crate::query::front_or_near;
 use crate::scratch::{FrameStats, Scratch, Visible, WalkState};
 use crate::world::World;
 
@@ -67,24 +75,59 @@ pub fn walk(world: &World, view: &View, marks: Marks, scratch: &mut Scratch, out
     walk_row(world, view, set, &mut scratch.walk, &mut scratch.stats, out);
 }
 
-/// Output leaf `l` of the walk tree and its faces not yet output this frame.
+/// Back-face culling for one frame: the draw data (face planes) and the eye.
+#[derive(Clone, Copy)]
+struct BackFaces<'a> {
+    draw: &'a DrawData,
+    eye: Vec3A,
+}
+
+impl<'a> BackFaces<'a> {
+    /// The culling `view` asks for, if any.
+    fn of(world: &'a World, view: &View) -> Option<Self> {
+        view.cull_back_faces.then(|| Self { draw: world.draw(), eye: view.eye })
+    }
+}
+
+/// True when face `f` is output under `cull`.
 #[inline(always)]
-fn emit_leaf(tree: &WalkTree, l: usize, face_mark: &mut [u32], frame: u32, out: &mut Visible) {
+fn keeps(cull: Option<BackFaces>, f: u32) -> bool {
+    cull.is_none_or(|c| front_or_near(c.draw, f, c.eye))
+}
+
+/// Output leaf `l` of the walk tree and its faces not yet output this frame (and not culled).
+#[inline(always)]
+fn emit_leaf(
+    tree: &WalkTree,
+    l: usize,
+    face_mark: &mut [u32],
+    frame: u32,
+    cull: Option<BackFaces>,
+    out: &mut Visible,
+) {
     let (Some(leaf), Some(after)) = (tree.leaves.get(l), tree.leaves.get(l + 1)) else { return };
     out.leaves.push(leaf.id & !SHARED_FACE);
     let entries = tree.faces.get(leaf.face_start as usize..after.face_start as usize).unwrap_or(&[]);
     if leaf.id & SHARED_FACE == 0 {
-        out.faces.extend_from_slice(entries);
+        match cull {
+            None => out.faces.extend_from_slice(entries),
+            Some(_) => out.faces.extend(entries.iter().copied().filter(|&f| keeps(cull, f))),
+        }
         return;
     }
     for &e in entries {
         if e & SHARED_FACE == 0 {
-            out.faces.push(e);
+            if keeps(cull, e) {
+                out.faces.push(e);
+            }
         } else if let Some(m) = face_mark.get_mut((e & !SHARED_FACE) as usize)
             && *m != frame
         {
             *m = frame;
-            out.faces.push(e & !SHARED_FACE);
+            let f = e & !SHARED_FACE;
+            if keeps(cull, f) {
+                out.faces.push(f);
+            }
         }
     }
 }
@@ -110,6 +153,7 @@ fn walk_branches(
     let tree = world.walk_tree();
     let fr: &Frustum = &view.frustum;
     let eye = view.eye.to_array();
+    let cull = BackFaces::of(world, view);
     let (mut visited, mut tests) = (0u32, 0u32);
     let stack = st.stack.as_mut_slice();
     let mut top = 0usize;
@@ -146,7 +190,7 @@ fn walk_branches(
                 push(stack, &mut top, (b.child[near], near_mask), near_in);
             }
         } else {
-            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
+            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, cull, out);
         }
         next = pop(stack, &mut top);
     }
@@ -190,6 +234,7 @@ fn walk_row(
     let tree = world.walk_tree();
     let fr: &Frustum = &view.frustum;
     let eye = view.eye.to_array();
+    let cull = BackFaces::of(world, view);
     let mut visited = 0u32;
     let mut tests = 0u32;
     let stack = st.stack.as_mut_slice();
@@ -219,7 +264,7 @@ fn walk_row(
                 push(stack, &mut top, (node.child[near], near_mask), near_marked & near_in);
             }
         } else {
-            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, out);
+            emit_leaf(tree, (!child) as usize, &mut st.face_mark, frame, cull, out);
         }
         next = pop(stack, &mut top);
     }

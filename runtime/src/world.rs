@@ -133,7 +133,7 @@ impl World {
         Ok(Self {
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             locate: LocateTree::build(&tree),
-            draw: DrawData::new(level, &tree),
+            draw: DrawData::new(level, &tree)?,
             tree,
             rows,
             phs: PhsRows::stored(phs),

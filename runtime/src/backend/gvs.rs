@@ -8,7 +8,8 @@
 //! # Conventions
 //! - The eye's cell, and what a cell lists, are as in [`crate::gvs_cells`].
 //! - `Visible::leaves` stays empty: GVS cells are not leaves. `Visible::faces` holds face indices of
-//!   the level, each once.
+//!   the level, each once; with [`View::cull_back_faces`] the back faces are dropped after the
+//!   query ([`World::cull_back_faces`]).
 
 use crate::backend::api::Backend;
 use crate::camera::View;
@@ -46,10 +47,14 @@ fn fits(cells: &GvsCells, world: &World) -> bool {
     !cells.is_empty() && world.num_faces() == cells.num_faces()
 }
 
-/// The frame of either backend.
-fn cull_cells(cells: &GvsCells, view: &View, scratch: &mut Scratch, out: &mut Visible) {
+/// The frame of either backend; back faces (when the view asks) are dropped from the sorted
+/// list, since no walk outputs these faces.
+fn cull_cells(world: &World, cells: &GvsCells, view: &View, scratch: &mut Scratch, out: &mut Visible) {
     out.leaves.clear();
     cells.query(view.eye, &view.frustum, &mut out.faces);
+    if view.cull_back_faces {
+        world.cull_back_faces(view.eye, &mut out.faces);
+    }
     scratch.stats = FrameStats::default();
 }
 
@@ -62,8 +67,8 @@ impl Backend for Gvs {
         fits(&self.cells, world)
     }
 
-    fn cull(&self, _world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
-        cull_cells(&self.cells, view, scratch, out);
+    fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
+        cull_cells(world, &self.cells, view, scratch, out);
     }
 }
 
@@ -84,7 +89,7 @@ impl Backend for WorldGvs {
 
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
         match world.gvs_cells() {
-            Some(cells) => cull_cells(cells, view, scratch, out),
+            Some(cells) => cull_cells(world, cells, view, scratch, out),
             None => {
                 out.clear();
                 scratch.stats = FrameStats::default();

@@ -1,7 +1,8 @@
-//! The hand-written C header `runtime/include/sightline.h` against the exported functions of
-//! `runtime/src/ffi.rs`: every `#[unsafe(no_mangle)] pub ... extern "C" fn` is declared in the
-//! header and every `sl_*` declaration of the header is exported, with the same parameter and
-//! return types under a small Rust ↔ C type mapping.
+//! The hand-written C header `runtime/include/sightline.h` against `runtime/src/ffi.rs`: every
+//! `#[unsafe(no_mangle)] pub ... extern "C" fn` is declared in the header and every `sl_*`
+//! declaration of the header is exported, with the same parameter and return types under a small
+//! Rust ↔ C type mapping; every `#[repr(C)]` struct has a `typedef struct` with the same fields
+//! (names, types, order); every `SL_*` constant has the same value on both sides.
 
 use std::collections::BTreeMap;
 
@@ -94,13 +95,7 @@ fn rust_functions(src: &str) -> BTreeMap<String, Signature> {
 
 /// The `sl_*` function declarations of the header (comments removed).
 fn c_functions(header: &str) -> BTreeMap<String, Signature> {
-    let mut text = String::new();
-    let mut rest = header;
-    while let Some(i) = rest.find("/*") {
-        text.push_str(&rest[..i]);
-        rest = rest[i..].find("*/").map_or("", |j| &rest[i + j + 2..]);
-    }
-    text.push_str(rest);
+    let text = uncommented(header);
     let mut out = BTreeMap::new();
     for decl in text.split([';', '{', '}']) {
         let Some(open) = decl.find('(') else { continue };
@@ -118,10 +113,136 @@ fn c_functions(header: &str) -> BTreeMap<String, Signature> {
     out
 }
 
-/// Every difference between the two sets of functions.
+/// The header without its `/* */` comments.
+fn uncommented(header: &str) -> String {
+    let mut text = String::new();
+    let mut rest = header;
+    while let Some(i) = rest.find("/*") {
+        text.push_str(&rest[..i]);
+        rest = rest[i..].find("*/").map_or("", |j| &rest[i + j + 2..]);
+    }
+    text.push_str(rest);
+    text
+}
+
+/// A struct's fields in order: name and type, arrays as `T[N]` (C spelling).
+type Fields = Vec<(String, String)>;
+
+/// A Rust field type in C spelling, arrays as `T[N]`.
+fn rust_field_type(ty: &str) -> String {
+    let ty = ty.trim();
+    match ty.strip_prefix('[').and_then(|t| t.strip_suffix(']')).and_then(|t| t.split_once(';')) {
+        Some((elem, n)) => format!("{}[{}]", rust_type(elem), n.trim()),
+        None => rust_type(ty),
+    }
+}
+
+/// The `#[repr(C)]` structs of `ffi.rs` (attributes and doc comments between the `repr` and the
+/// `struct` skipped).
+fn rust_structs(src: &str) -> BTreeMap<String, Fields> {
+    let mut out = BTreeMap::new();
+    for (at, _) in src.match_indices("#[repr(C)]") {
+        let rest = &src[at..];
+        let start = rest.find("pub struct ").expect("struct after repr(C)") + "pub struct ".len();
+        let open = rest.find('{').expect("struct body");
+        let name = rest[start..open].trim().to_string();
+        let close = rest.find("\n}").expect("end of struct");
+        let fields = rest[open + 1..close]
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.starts_with("//") && !l.is_empty())
+            .map(|l| {
+                let (n, ty) = l.strip_prefix("pub ").unwrap_or(l).split_once(':').expect("name: type");
+                (n.trim().to_string(), rust_field_type(ty.trim_end_matches(',')))
+            })
+            .collect();
+        out.insert(name, fields);
+    }
+    out
+}
+
+/// The `typedef struct Name { ... } Name;` definitions of the header.
+fn c_structs(header: &str) -> BTreeMap<String, Fields> {
+    let text = uncommented(header);
+    let mut out = BTreeMap::new();
+    for (at, _) in text.match_indices("typedef struct ") {
+        let rest = &text[at + "typedef struct ".len()..];
+        let (Some(open), Some(semi)) = (rest.find('{'), rest.find(';')) else { continue };
+        if semi < open {
+            continue; // an opaque handle
+        }
+        let name = rest[..open].trim().to_string();
+        let close = rest.find('}').expect("end of struct");
+        let fields = rest[open + 1..close]
+            .split(';')
+            .filter(|d| !d.trim().is_empty())
+            .map(|d| {
+                let d = d.trim();
+                let (decl, array) = match d.split_once('[') {
+                    Some((decl, n)) => (decl, format!("[{}]", n.trim_end_matches(']').trim())),
+                    None => (d, String::new()),
+                };
+                let (ty, n) = decl.rsplit_once(char::is_whitespace).expect("type name");
+                (n.to_string(), format!("{}{array}", c_type(ty, false)))
+            })
+            .collect();
+        out.insert(name, fields);
+    }
+    out
+}
+
+/// `SL_*` constants of `ffi.rs` (`pub const SL_X: T = value;`).
+fn rust_constants(src: &str) -> BTreeMap<String, i64> {
+    src.lines()
+        .filter_map(|l| l.trim().strip_prefix("pub const SL_"))
+        .map(|l| {
+            let (name, rest) = l.split_once(':').expect("name: type");
+            let value = rest.split_once('=').expect("= value").1.trim().trim_end_matches(';');
+            (format!("SL_{name}"), value.parse().expect("an integer literal"))
+        })
+        .collect()
+}
+
+/// `SL_*` enumerators of the header's `enum { ... }` blocks.
+fn c_constants(header: &str) -> BTreeMap<String, i64> {
+    let text = uncommented(header);
+    let mut out = BTreeMap::new();
+    for (at, _) in text.match_indices("enum {") {
+        let body = &text[at + "enum {".len()..];
+        let body = &body[..body.find('}').expect("end of enum")];
+        for item in body.split(',').filter(|i| !i.trim().is_empty()) {
+            let (name, value) = item.split_once('=').expect("explicit values");
+            out.insert(name.trim().to_string(), value.trim().parse().expect("an integer"));
+        }
+    }
+    out
+}
+
+/// Every difference between two maps of named items (`what`: "struct", "constant").
+fn compare<T: PartialEq + std::fmt::Debug>(
+    what: &str,
+    c: &BTreeMap<String, T>,
+    rust: &BTreeMap<String, T>,
+) -> Vec<String> {
+    let mut errors = Vec::new();
+    for (name, r) in rust {
+        match c.get(name) {
+            None => errors.push(format!("{what} {name} is in ffi.rs but not in the header")),
+            Some(h) if h != r => errors.push(format!("{what} {name}: header {h:?}, ffi.rs {r:?}")),
+            Some(_) => {}
+        }
+    }
+    errors.extend(
+        c.keys().filter(|n| !rust.contains_key(*n)).map(|n| format!("{what} {n} is in the header only")),
+    );
+    errors
+}
+
+/// Every difference between the header and `ffi.rs`: functions, structs, constants.
 fn drift(header: &str, ffi: &str) -> Vec<String> {
     let (c, rust) = (c_functions(header), rust_functions(ffi));
-    let mut errors = Vec::new();
+    let mut errors = compare("struct", &c_structs(header), &rust_structs(ffi));
+    errors.extend(compare("constant", &c_constants(header), &rust_constants(ffi)));
     for (name, sig) in &rust {
         match c.get(name) {
             None => errors.push(format!("{name} is exported but not declared in the header")),
@@ -170,6 +291,35 @@ fn the_header_declares_exactly_the_exported_functions() {
     assert_eq!(c.get("sl_world_load_file").map(|s| s.1[1].as_str()), Some("SlWorld * *"));
     assert_eq!(c.get("sl_leaf_at").map(|s| s.1[1].as_str()), Some("const float *"));
     assert_eq!(c.get("sl_version"), Some(&(s("const char *"), Vec::new())));
+    // The struct and constant parsers see what is there.
+    let structs = c_structs(&header);
+    assert_eq!(structs.keys().collect::<Vec<_>>(), ["SlCamera", "SlFace", "SlModel", "SlTrace"]);
+    let model = &structs["SlModel"];
+    assert_eq!(model.first(), Some(&(s("mins"), s("float[3]"))));
+    assert_eq!(model.last(), Some(&(s("origin"), s("float[3]"))));
+    assert_eq!(
+        rust_structs(&ffi)["SlFace"].iter().find(|f| f.0 == "styles"),
+        Some(&(s("styles"), s("uint8_t[4]")))
+    );
+    let constants = c_constants(&header);
+    assert_eq!(constants.get("SL_ERR_RANGE"), Some(&6));
+    assert_eq!(constants.get("SL_CONTENTS_SKY"), Some(&-6));
+    assert_eq!(constants.len(), rust_constants(&ffi).len());
+    // The contents constants are the runtime's contents codes.
+    use sightline_formats::level::Contents;
+    use sightline_runtime::ffi;
+    let codes =
+        [Contents::Empty, Contents::Solid, Contents::Water, Contents::Slime, Contents::Lava, Contents::Sky]
+            .map(Contents::code);
+    let named = [
+        ffi::SL_CONTENTS_EMPTY,
+        ffi::SL_CONTENTS_SOLID,
+        ffi::SL_CONTENTS_WATER,
+        ffi::SL_CONTENTS_SLIME,
+        ffi::SL_CONTENTS_LAVA,
+        ffi::SL_CONTENTS_SKY,
+    ];
+    assert_eq!(codes, named);
 }
 
 #[test]
@@ -190,4 +340,25 @@ fn drift_is_reported() {
         drift(&header, &extra),
         vec!["sl_extra is exported but not declared in the header".to_string()]
     );
+    // A struct field retyped, one renamed, two swapped; a field missing from the header.
+    let retyped = header.replace(
+        "    uint32_t first_face;\n    uint32_t num_faces;",
+        "    uint32_t first_face;\n    int32_t num_faces;",
+    );
+    assert_eq!(drift(&retyped, &ffi).len(), 1, "{:?}", drift(&retyped, &ffi));
+    let renamed = header.replace("float near_dist;", "float znear;");
+    assert_eq!(drift(&renamed, &ffi).len(), 1);
+    let swapped = header.replace(
+        "    float yaw;    /* 0 = +X, 90 = +Y */\n    float pitch;",
+        "    float pitch;\n    float yaw;",
+    );
+    assert_eq!(drift(&swapped, &ffi).len(), 1);
+    let missing = header.replace("    float origin[3];\n} SlModel;", "} SlModel;");
+    assert_eq!(drift(&missing, &ffi), vec![drift(&missing, &ffi)[0].clone()]);
+    assert!(drift(&missing, &ffi)[0].starts_with("struct SlModel: header"));
+    // A constant changed, and one added to the header only.
+    let changed = header.replace("SL_ERR_RANGE = 6", "SL_ERR_RANGE = 7");
+    assert_eq!(drift(&changed, &ffi), vec!["constant SL_ERR_RANGE: header 7, ffi.rs 6".to_string()]);
+    let added = header.replace("SL_OK = 0,", "SL_OK = 0,\n    SL_ERR_NEW = 9,");
+    assert_eq!(drift(&added, &ffi), vec!["constant SL_ERR_NEW is in the header only".to_string()]);
 }

@@ -5,6 +5,7 @@
 
 use glam::Vec3A;
 use sightline_formats::bsp;
+use sightline_formats::entities::Entity;
 use sightline_formats::level::Contents;
 use sightline_runtime::check::sampled_leaves;
 use sightline_runtime::poses::{SplitMix64, point_in, random_open_point};
@@ -92,6 +93,34 @@ fn faces_equal_the_source_bsp_faces() {
             want.dedup();
             assert_eq!(draw.cluster_faces(c), want.as_slice(), "{name}: cluster {c} faces");
         }
+    }
+}
+
+/// Entities through the draw API: every brush model but the world is named by one entity (doors
+/// among them), and a model's origin is its entity's `origin` (zero without one: Quake 1's doors
+/// have none; a model with one is checked on a synthetic level in the runtime's unit tests).
+#[test]
+fn brush_models_take_their_entity_origin() {
+    let mut checked = 0;
+    for (name, _, world) in maps().into_iter().chain(textured_maps()) {
+        let draw = world.draw();
+        let ents = draw.entity_list();
+        assert_eq!(ents.first().map(|e| e.classname()), Some("worldspawn"), "{name}");
+        let doors: Vec<_> = ents.iter().filter(|e| e.classname() == "func_door").collect();
+        assert!(!doors.is_empty(), "{name}: doors");
+        for m in 1..draw.models().len() as u32 {
+            let named: Vec<_> = ents.iter().filter(|e| e.model() == Some(m)).collect();
+            assert_eq!(named.len(), 1, "{name}: model {m} named once");
+            let want = named[0].origin().map_or([0.0; 3], |o| o.expect("finite origin"));
+            assert_eq!(draw.models()[m as usize].origin.to_array(), want, "{name}: model {m} origin");
+        }
+        let models = draw.models();
+        let door_origin = |d: &&Entity| d.model().and_then(|m| models.get(m as usize)).map(|m| m.origin);
+        assert!(doors.iter().all(|d| door_origin(d) == Some(Vec3A::ZERO)), "{name}: {} models", models.len());
+        checked += 1;
+    }
+    if checked == 0 {
+        eprintln!("shared maps absent: brush model origins not checked");
     }
 }
 
@@ -219,5 +248,102 @@ fn phs_is_the_union_of_pvs_rows() {
         // Out of range (the eye in solid): everything.
         world.decode_phs(n, &mut phs);
         assert_eq!(phs.count_ones(), n as usize, "{name}");
+    }
+}
+
+/// A Quake 2 BSP's faces read straight from its lumps (`qfiles.h`), apart from the reader under
+/// test: corners, plane side, texinfo (axes, flags, name), light styles and offset.
+struct Q2Face {
+    corners: Vec<[f32; 3]>,
+    plane: usize,
+    back: bool,
+    axes: [[f32; 4]; 2],
+    flags: u32,
+    name: String,
+    styles: [u8; 4],
+    light_offset: i32,
+}
+
+fn q2_faces(b: &[u8]) -> (Vec<Q2Face>, Vec<([f32; 3], f32)>) {
+    let u32_at = |at: usize| u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"));
+    let f32_at = |at: usize| f32::from_bits(u32_at(at));
+    let u16_at = |at: usize| usize::from(u16::from_le_bytes([b[at], b[at + 1]]));
+    let lump = |i: usize| (u32_at(8 + 8 * i) as usize, u32_at(12 + 8 * i) as usize);
+    let vec3 = |at: usize| [f32_at(at), f32_at(at + 4), f32_at(at + 8)];
+    let ((planes, np), (verts, _), (texinfo, _), (faces, nf)) = (lump(1), lump(2), lump(5), lump(6));
+    let ((edges, _), (surfedges, _)) = (lump(11), lump(12));
+    let planes = (0..np / 20).map(|i| (vec3(planes + 20 * i), f32_at(planes + 20 * i + 12))).collect();
+    let faces = (0..nf / 20)
+        .map(|i| {
+            let at = faces + 20 * i;
+            let (first, count, info) =
+                (u32_at(at + 4) as usize, u16_at(at + 8), texinfo + 76 * u16_at(at + 10));
+            let corners = (first..first + count)
+                .map(|k| {
+                    let e = u32_at(surfedges + 4 * k) as i32;
+                    let edge = edges + 4 * e.unsigned_abs() as usize;
+                    verts + 12 * if e >= 0 { u16_at(edge) } else { u16_at(edge + 2) }
+                })
+                .map(vec3)
+                .collect();
+            let name = &b[info + 40..info + 72];
+            let name = &name[..name.iter().position(|&c| c == 0).unwrap_or(32)];
+            Q2Face {
+                corners,
+                plane: u16_at(at),
+                back: u16_at(at + 2) != 0,
+                axes: [0, 16].map(|o| [0, 4, 8, 12].map(|k| f32_at(info + o + k))),
+                flags: u32_at(info + 32),
+                name: String::from_utf8_lossy(name).into_owned(),
+                styles: [b[at + 12], b[at + 13], b[at + 14], b[at + 15]],
+                light_offset: u32_at(at + 16) as i32,
+            }
+        })
+        .collect();
+    (faces, planes)
+}
+
+/// Quake 2: faces through the runtime equal the BSP's own (count, corners, planes, texture names,
+/// texinfo axes and flags, light fields); Quake 2 textures are external, so none is sized.
+#[test]
+fn quake2_faces_equal_the_source_bsp_faces() {
+    let rels = [
+        "q2/e1m1.ericw.bsp",
+        "q2/dm2.q2tools.bsp",
+        "q2/start.bsp",
+        "q2/q2_func_illusionary_visblocker.ericw.bsp",
+    ];
+    let mut checked = 0;
+    for rel in rels {
+        let Some(path) = sightline_tests::shared_map(rel) else { continue };
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let world = load::load_bytes(&bytes).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let draw = world.draw();
+        let (faces, planes) = q2_faces(&bytes);
+        assert!(faces.len() > 100, "{rel}: faces");
+        assert_eq!(draw.num_faces(), faces.len(), "{rel}: face count");
+        assert!(draw.has_face_draw(), "{rel}: texture projections");
+        for (i, f) in faces.iter().enumerate() {
+            let face = draw.face(i as u32).expect("face in range");
+            assert_eq!(face.vertices, f.corners.as_slice(), "{rel}: face {i} corners");
+            let (normal, dist) = planes[f.plane];
+            let sign = if f.back { -1.0 } else { 1.0 };
+            assert!(
+                (face.normal - Vec3A::from_array(normal) * sign).length() < 1e-5,
+                "{rel}: face {i} normal"
+            );
+            assert!((face.dist - dist * sign).abs() < 1e-3, "{rel}: face {i} dist");
+            assert_eq!(draw.texture_name(face.texture), Some(f.name.as_str()), "{rel}: face {i} texture");
+            assert_eq!(draw.texture_size(face.texture), None, "{rel}: .wal sizes are not in the BSP");
+            let d = face.draw.expect("projection");
+            assert_eq!(([d.s, d.t], d.flags), (f.axes, f.flags), "{rel}: face {i} texinfo");
+            assert_eq!((d.styles, d.light_offset), (f.styles, f.light_offset), "{rel}: face {i} light");
+        }
+        // The shared Quake 2 maps are not lit (light offsets -1), but every face is textured.
+        assert!(faces.iter().all(|f| f.axes != [[0.0; 4]; 2]), "{rel}: texture axes");
+        checked += 1;
+    }
+    if checked == 0 {
+        eprintln!("shared Quake 2 maps absent: Quake 2 draw data not compared");
     }
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
-use sightline_formats::level::FaceDraw;
+use sightline_formats::level::{FaceDraw, Model};
 use sightline_formats::slvl;
 use sightline_runtime::backend::{Backend, pvs::Pvs};
 use sightline_runtime::{Bitset, Camera, Scratch, Visible, World, load, synth};
@@ -137,6 +137,13 @@ int main(int argc, char **argv) {
     for (size_t i = 0; i < n; i++) printf(" %u", list[i]);
     printf("\n");
     free(list);
+    /* One vertex buffer: every face's vertices are its slice of the level's array. */
+    size_t nall = 0;
+    if (sl_world_vertices(world, NULL, 0, &nall) != SL_OK) return 40;
+    if (nall > 0 && sl_world_vertices(world, NULL, 1, &n) != SL_ERR_NULL) return 41;
+    float *all = malloc((3 * nall + 1) * sizeof(float));
+    if (sl_world_vertices(world, all, nall, &n) != SL_OK || n != nall) return 42;
+    printf("vertices %zu\n", nall);
     float *xyz = NULL;
     for (uint32_t f = 0; f < nfaces; f++) {
         if (sl_face(world, f, &face) != SL_OK) return 84;
@@ -144,8 +151,10 @@ int main(int argc, char **argv) {
         if (sl_face_vertices(world, f, NULL, 0, &nv) != SL_OK || nv != face.num_vertices) return 85;
         xyz = realloc(xyz, (3 * nv + 1) * sizeof(float));
         if (sl_face_vertices(world, f, xyz, nv, &nv) != SL_OK) return 86;
-        printf("F%u %08x %08x %08x %08x t%u d%d", f, bits(face.normal[0]), bits(face.normal[1]),
-               bits(face.normal[2]), bits(face.dist), face.texture, face.has_draw);
+        if ((size_t)face.first_vertex + nv > nall) return 43;
+        if (nv > 0 && memcmp(xyz, all + 3 * (size_t)face.first_vertex, 3 * nv * sizeof(float)) != 0) return 44;
+        printf("F%u %08x %08x %08x %08x t%u d%d @%u", f, bits(face.normal[0]), bits(face.normal[1]),
+               bits(face.normal[2]), bits(face.dist), face.texture, face.has_draw, face.first_vertex);
         for (int i = 0; i < 4; i++) printf(" %08x %08x", bits(face.s[i]), bits(face.t[i]));
         printf(" %u %u %u %u %u %d v%zu", face.flags, face.styles[0], face.styles[1], face.styles[2], face.styles[3],
                face.light_offset, nv);
@@ -153,6 +162,7 @@ int main(int argc, char **argv) {
         printf("\n");
     }
     free(xyz);
+    free(all);
     for (uint32_t t = 0; t < ntextures; t++) {
         const char *name = sl_texture_name(world, t);
         if (name == NULL || sl_texture_size(world, t, &u, &v) != SL_OK) return 87;
@@ -160,9 +170,10 @@ int main(int argc, char **argv) {
     }
     for (uint32_t m = 0; m < nmodels; m++) {
         if (sl_model(world, m, &model) != SL_OK) return 88;
-        printf("M%u %08x %08x %08x %08x %08x %08x %u %u\n", m, bits(model.mins[0]), bits(model.mins[1]),
-               bits(model.mins[2]), bits(model.maxs[0]), bits(model.maxs[1]), bits(model.maxs[2]),
-               model.first_face, model.num_faces);
+        printf("M%u %08x %08x %08x %08x %08x %08x %u %u %08x %08x %08x\n", m, bits(model.mins[0]),
+               bits(model.mins[1]), bits(model.mins[2]), bits(model.maxs[0]), bits(model.maxs[1]),
+               bits(model.maxs[2]), model.first_face, model.num_faces, bits(model.origin[0]),
+               bits(model.origin[1]), bits(model.origin[2]));
     }
     printf("entities %zu\n%s\n", strlen(sl_world_entities(world)), sl_world_entities(world));
     sl_world_free(world);
@@ -262,6 +273,7 @@ fn expected(world: &World, eye: Vec3) -> String {
     let mut front: Vec<u32> = (0..draw.num_faces() as u32).collect();
     world.cull_back_faces(eye, &mut front);
     let _ = writeln!(s, "\nfront {}:{}", front.len(), list(&front));
+    let _ = writeln!(s, "vertices {}", draw.vertices().len());
     for f in 0..draw.num_faces() as u32 {
         let v = draw.face(f).expect("face");
         let d = v.draw.copied().unwrap_or(FaceDraw::NONE);
@@ -269,10 +281,11 @@ fn expected(world: &World, eye: Vec3) -> String {
         let [a, b, c, e] = d.styles;
         let _ = writeln!(
             s,
-            "F{f}{} t{} d{}{st} {} {a} {b} {c} {e} {} v{}{}",
+            "F{f}{} t{} d{} @{}{st} {} {a} {b} {c} {e} {} v{}{}",
             hex(v.normal.to_array().into_iter().chain([v.dist])),
             v.texture,
             i32::from(v.draw.is_some()),
+            v.first_vertex,
             d.flags,
             d.light_offset,
             v.vertices.len(),
@@ -286,10 +299,11 @@ fn expected(world: &World, eye: Vec3) -> String {
     for (i, m) in draw.models().iter().enumerate() {
         let _ = writeln!(
             s,
-            "M{i}{} {} {}",
+            "M{i}{} {} {}{}",
             hex(m.mins.to_array().into_iter().chain(m.maxs.to_array())),
             m.faces.start,
-            m.faces.len()
+            m.faces.len(),
+            hex(m.origin.to_array())
         );
     }
     let _ = writeln!(s, "entities {}\n{}", draw.entities().len(), draw.entities());
@@ -348,7 +362,12 @@ fn c_program_agrees_with_the_rust_api() {
     }
 
     // A level built here, written as .slvl.
-    let level = synth::grid_level([6, 5, 2], 64.0, true, |x, y, _| x == 3 && y != 2);
+    let mut level = synth::grid_level([6, 5, 2], 64.0, true, |x, y, _| x == 3 && y != 2);
+    // A brush model placed at its entity's origin.
+    level.models.push(Model { num_faces: 2, ..level.models[0] });
+    level.entities = "{\n\"classname\" \"worldspawn\"\n}\n\
+                      {\n\"classname\" \"func_rotating\"\n\"model\" \"*1\"\n\"origin\" \"8 -16 24.5\"\n}\n"
+        .to_string();
     slvl::validate(&level).expect("synthetic level is valid");
     let path = tmp.join("grid.slvl");
     std::fs::write(&path, slvl::write(&level, &slvl::WriteOptions { compress: true })).expect("write level");
@@ -381,6 +400,8 @@ fn c_program_agrees_with_the_rust_api() {
             }
             assert_eq!(got.lines().count(), want.lines().count(), "{what}");
             assert!(got.lines().nth(3).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
+            let origins: Vec<_> = world.draw().models().iter().map(|m| m.origin).collect();
+            assert!(path != &cases[0].0 || origins[1] == glam::Vec3A::new(8.0, -16.0, 24.5), "{origins:?}");
             // The eye is in open space, and a leaf-contents code tells C about solid.
             assert!(got.contains("\ncontents -1 "), "{what}");
             let solid =

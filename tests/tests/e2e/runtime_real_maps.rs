@@ -149,22 +149,36 @@ fn pvs_walk_equals_the_reference_walk_on_real_maps() {
         let mut fast = Visible::for_world(&world);
         let cams = random_cameras(&world, 31, 1500);
         let mut wants = Vec::new();
+        let mut dropped = 0;
         for cam in &cams {
             let view = cam.view();
             let marked = pvs_leaves(&world, view.eye);
             let want = reference_walk(&world, &view, &|l| marked[l as usize]);
             Pvs.cull(&world, &view, &mut scratch, &mut fast);
             assert_eq!(fast, want, "{name}: PVS trees vs reference for {cam:?}");
-            wants.push(want);
+            // Back faces culled in the walk: the reference with the same culling, which is the
+            // unculled output with `cull_back_faces` run after it.
+            let culled_view = view.with_back_face_culling(true);
+            let culled = reference_walk(&world, &culled_view, &|l| marked[l as usize]);
+            let mut after = want.clone();
+            world.cull_back_faces(view.eye, &mut after.faces);
+            assert_eq!(culled, after, "{name}: culled reference vs a pass after it for {cam:?}");
+            Pvs.cull(&world, &culled_view, &mut scratch, &mut fast);
+            assert_eq!(fast, culled, "{name}: culled PVS trees vs reference for {cam:?}");
+            dropped += want.faces.len() - culled.faces.len();
+            wants.push((want, culled));
         }
+        assert!(dropped > cams.len(), "{name}: back faces culled ({dropped})");
         // The same with rows decoded and marked per cluster change.
         world.drop_pvs_trees();
         let mut scratch = Scratch::new(&world);
-        for (cam, want) in cams.iter().zip(&wants) {
+        for (cam, (want, culled)) in cams.iter().zip(&wants) {
             Pvs.cull(&world, &cam.view(), &mut scratch, &mut fast);
             assert_eq!(&fast, want, "{name}: decoded marks vs reference for {cam:?}");
+            Pvs.cull(&world, &cam.view().with_back_face_culling(true), &mut scratch, &mut fast);
+            assert_eq!(&fast, culled, "{name}: culled decoded marks vs reference for {cam:?}");
         }
-        assert!(wants.iter().map(|w| w.faces.len()).sum::<usize>() > 1000 * cams.len() / 100);
+        assert!(wants.iter().map(|w| w.0.faces.len()).sum::<usize>() > 1000 * cams.len() / 100);
     }
 }
 
