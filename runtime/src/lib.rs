@@ -61,3 +61,9 @@ pub use world::{Bounds, LeafId, World};
 
 #[cfg(test)]
 mod tests;
+
+/// `docs/engine.md`, the engine integration guide, included so that its Rust snippets run as
+/// doctests (they build small levels with `synth`, hence `testkit`).
+#[cfg(all(doctest, feature = "testkit"))]
+#[doc = include_str!("../../docs/engine.md")]
+pub struct EngineGuide;

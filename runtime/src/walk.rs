@@ -13,13 +13,14 @@
 //! pushes of the children that pass.
 //!
 //! With [`View::cull_back_faces`] a face is output only when the eye is not more than
-//! [`crate::query::BACKFACE_EPSILON`] behind its plane (tested where the face is output, so there
-//! is no second pass; a culled shared face is still output by no other leaf).
+//! [`crate::query::BACKFACE_EPSILON`] behind its plane (decided where the face is output, without
+//! a branch on the decision, so there is no second pass; a culled face shared by several leaves
+//! is not output by any of them).
 //!
 //! **Invariant:** both walks (over a cluster's PVS tree and over a mark set) output exactly what
 //! `check::reference_walk` (feature `testkit`: recursive, scalar, over the level's own tables)
-//! outputs with the same view (back-face culling included): the same leaves, faces and order. Tested on synthetic grids and on random poses of
-//! real maps.
+//! outputs with the same view, back-face culling included: the same leaves, faces and order.
+//! Tested on synthetic grids and on random poses of real maps.
 
 use glam::Vec3A;
 
@@ -111,7 +112,20 @@ fn emit_leaf(
     if leaf.id & SHARED_FACE == 0 {
         match cull {
             None => out.faces.extend_from_slice(entries),
-            Some(_) => out.faces.extend(entries.iter().copied().filter(|&f| keeps(cull, f))),
+            Some(_) => {
+                // Write every entry and advance past the kept ones: the keep decision (about
+                // half the faces of a frame each way) does not branch.
+                let start = out.faces.len();
+                out.faces.resize(start + entries.len(), 0);
+                let mut n = start;
+                for &f in entries {
+                    if let Some(slot) = out.faces.get_mut(n) {
+                        *slot = f;
+                    }
+                    n += usize::from(keeps(cull, f));
+                }
+                out.faces.truncate(n);
+            }
         }
         return;
     }

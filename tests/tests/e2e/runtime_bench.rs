@@ -15,6 +15,7 @@ fn args(path: &std::path::Path, backends: &[&str]) -> Args {
         backends: backends.iter().map(|b| b.to_string()).collect(),
         json: true,
         no_pvs_trees: backends.is_empty(),
+        cull_back_faces: !backends.is_empty(),
     }
 }
 

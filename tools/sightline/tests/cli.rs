@@ -126,7 +126,16 @@ fn compile_info_validate_bench_and_vis_succeed_with_json() {
 
     let bench = run(&["bench", s(&level), "--frames", "50", "--json"]);
     assert_eq!(code(&bench), 0, "{}", stderr(&bench));
-    stdout_json(&bench);
+    let plain = stdout_json(&bench);
+    // Back faces culled in the walk: fewer faces on the same poses, the same leaves.
+    let culled =
+        run(&["bench", s(&level), "--frames", "50", "--json", "--cull-back-faces", "--backend", "pvs"]);
+    assert_eq!(code(&culled), 0, "{}", stderr(&culled));
+    let culled = stdout_json(&culled);
+    assert_eq!(culled["cull_back_faces"], true);
+    let pvs = |j: &Value, key: &str| j["backends"][0][key].as_f64().expect(key);
+    assert!(pvs(&culled, "visible_faces_avg") < pvs(&plain, "visible_faces_avg"));
+    assert_eq!(pvs(&culled, "visible_leaves_avg"), pvs(&plain, "visible_leaves_avg"));
 
     let prt = level.with_extension("prt");
     assert!(prt.is_file(), "compile wrote the portal file");

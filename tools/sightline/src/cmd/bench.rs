@@ -44,6 +44,10 @@ pub struct Args {
     /// per cluster change (what levels over the memory budget do).
     #[arg(long)]
     pub no_pvs_trees: bool,
+    /// Leave out back faces in the walk (`View::cull_back_faces`), as an engine drawing faces
+    /// would.
+    #[arg(long)]
+    pub cull_back_faces: bool,
 }
 
 /// Timings and counts of one backend.
@@ -114,7 +118,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             })
             .collect::<anyhow::Result<_>>()?
     };
-    let reports: Vec<Report> = chosen.iter().map(|b| measure(&world, *b, &cams)).collect();
+    let reports: Vec<Report> =
+        chosen.iter().map(|b| measure(&world, *b, &cams, args.cull_back_faces)).collect();
     if args.json {
         let out = json!({
             "input": args.input.display().to_string(),
@@ -125,6 +130,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             "clusters": world.num_clusters(),
             "portals": world.num_portals(),
             "pvs_trees_in_memory": world.pvs_trees_in_memory(),
+            "cull_back_faces": args.cull_back_faces,
             "gvs_cells": world.gvs_cells().map_or(0, |g| g.num_cells()),
             "not_run": unsupported.iter().map(|(b, why)| json!({ "backend": b, "reason": why })).collect::<Vec<_>>(),
             "camera": { "fov_y": cams[0].fov_y, "aspect": cams[0].aspect, "pitch_range": 60 },
@@ -151,10 +157,10 @@ fn why_not(name: &str) -> &'static str {
     }
 }
 
-fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
+fn measure(world: &World, backend: &dyn Backend, cams: &[Camera], cull: bool) -> Report {
     let mut scratch = Scratch::new(world);
     let mut out = Visible::for_world(world);
-    let views: Vec<_> = cams.iter().map(Camera::view).collect();
+    let views: Vec<_> = cams.iter().map(|c| c.view().with_back_face_culling(cull)).collect();
     for view in &views {
         backend.cull(world, view, &mut scratch, &mut out);
     }
@@ -188,7 +194,7 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
     let pvs_avg = marked as f64 / n;
     let (mark_ns, walk_ns, walk_per_leaf) =
         if backend.name() == "pvs" { phases(world, &views) } else { (None, None, None) };
-    let coherent_ns_median = coherent(world, backend, cams);
+    let coherent_ns_median = coherent(world, backend, cams, cull);
     Report {
         backend: backend.name(),
         frames: views.len(),
@@ -213,14 +219,14 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera]) -> Report {
 }
 
 /// Median ns per frame of a camera turning in place (see the module docs).
-fn coherent(world: &World, backend: &dyn Backend, cams: &[Camera]) -> u64 {
+fn coherent(world: &World, backend: &dyn Backend, cams: &[Camera], cull: bool) -> u64 {
     let mut scratch = Scratch::new(world);
     let mut out = Visible::for_world(world);
     let mut times = Vec::new();
     for cam in cams.iter().take(cams.len().div_ceil(8)) {
-        backend.cull(world, &cam.view(), &mut scratch, &mut out);
+        backend.cull(world, &cam.view().with_back_face_culling(cull), &mut scratch, &mut out);
         for k in 1..8 {
-            let view = Camera { yaw: cam.yaw + 5.0 * k as f32, ..*cam }.view();
+            let view = Camera { yaw: cam.yaw + 5.0 * k as f32, ..*cam }.view().with_back_face_culling(cull);
             let start = Instant::now();
             backend.cull(world, &view, &mut scratch, &mut out);
             times.push(start.elapsed().as_nanos() as f64);
