@@ -174,6 +174,10 @@ void sl_scratch_free(SlScratch *scratch);
 /* Visible leaves front to back: writes min(count, capacity) leaves, and the full count. */
 int sl_visible_leaves(const SlWorld *world, SlScratch *scratch, const SlCamera *camera, int backend,
                       uint32_t *out_leaves, size_t capacity, size_t *out_count);
+/* Visible faces, each once, nearest leaf first; back faces (the eye more than 1/32 unit behind
+ * the plane) left out by the walk when cull_back_faces is non-zero. Buffer protocol. */
+int sl_visible_faces(const SlWorld *world, SlScratch *scratch, const SlCamera *camera, int backend,
+                     int cull_back_faces, uint32_t *out_faces, size_t capacity, size_t *out_count);
 
 #ifdef __cplusplus
 }

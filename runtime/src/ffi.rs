@@ -349,6 +349,35 @@ pub unsafe extern "C" fn sl_scratch_free(scratch: *mut SlScratch) {
     }
 }
 
+/// Run backend `backend` (`SL_BACKEND_*`) for `cam` into the scratch's output lists, with back
+/// faces left out of the faces when `back_faces`.
+fn cull_into(w: &SlWorld, s: &mut SlScratch, cam: &SlCamera, backend: i32, back_faces: bool) -> SlStatus {
+    let b: &dyn Backend = match backend {
+        SL_BACKEND_PVS => &Pvs,
+        SL_BACKEND_PORTAL => &Portal,
+        _ => {
+            set_error(format!("unknown backend {backend}"));
+            return SL_ERR_BACKEND;
+        }
+    };
+    if !b.supports(&w.world) {
+        set_error(format!("backend `{}` cannot run on this world", b.name()));
+        return SL_ERR_BACKEND;
+    }
+    let c = Camera {
+        position: Vec3::from_array(cam.position),
+        yaw: cam.yaw,
+        pitch: cam.pitch,
+        roll: cam.roll,
+        fov_y: cam.fov_y,
+        aspect: cam.aspect,
+        near: cam.near_dist,
+        far: cam.far_dist,
+    };
+    b.cull(&w.world, &c.view().with_back_face_culling(back_faces), &mut s.scratch, &mut s.visible);
+    SL_OK
+}
+
 /// Visible leaves of a camera, front to back. Writes at most `capacity` leaves to `out_leaves` and
 /// the full count to `out_count` (call again with a larger buffer when it exceeds `capacity`).
 ///
@@ -367,50 +396,51 @@ pub unsafe extern "C" fn sl_visible_leaves(
     out_count: *mut usize,
 ) -> SlStatus {
     guard(|| {
-        // SAFETY: null or live/readable/writable per the contract.
-        let (Some(w), Some(s), Some(cam), Some(count)) =
-            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() }, unsafe {
-                out_count.as_mut()
-            })
+        // SAFETY: null or live/readable per the contract.
+        let (Some(w), Some(s), Some(cam)) =
+            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() })
         else {
-            set_error("null argument".to_string());
-            return SL_ERR_NULL;
+            return null_argument();
         };
-        if out_leaves.is_null() && capacity > 0 {
-            set_error("null leaf buffer with non-zero capacity".to_string());
-            return SL_ERR_NULL;
+        match cull_into(w, s, cam, backend, false) {
+            // SAFETY: forwarded contract.
+            SL_OK => unsafe { write_list(&s.visible.leaves, out_leaves, capacity, out_count) },
+            err => err,
         }
-        let b: &dyn Backend = match backend {
-            SL_BACKEND_PVS => &Pvs,
-            SL_BACKEND_PORTAL => &Portal,
-            _ => {
-                set_error(format!("unknown backend {backend}"));
-                return SL_ERR_BACKEND;
-            }
+    })
+}
+
+/// Visible faces of a camera: the faces of the visible leaves, each once, nearest leaf first
+/// (what an engine draws), leaving out back faces (the eye more than 1/32 unit behind the plane)
+/// when `cull_back_faces` is non-zero, as the walk outputs them. Buffer protocol as
+/// [`sl_visible_leaves`].
+///
+/// # Safety
+/// As [`sl_visible_leaves`], with `out_faces` writable for `capacity` entries.
+#[unsafe(no_mangle)]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn sl_visible_faces(
+    world: *const SlWorld,
+    scratch: *mut SlScratch,
+    camera: *const SlCamera,
+    backend: i32,
+    cull_back_faces: i32,
+    out_faces: *mut u32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/readable per the contract.
+        let (Some(w), Some(s), Some(cam)) =
+            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() })
+        else {
+            return null_argument();
         };
-        if !b.supports(&w.world) {
-            set_error(format!("backend `{}` cannot run on this world", b.name()));
-            return SL_ERR_BACKEND;
+        match cull_into(w, s, cam, backend, cull_back_faces != 0) {
+            // SAFETY: forwarded contract.
+            SL_OK => unsafe { write_list(&s.visible.faces, out_faces, capacity, out_count) },
+            err => err,
         }
-        let c = Camera {
-            position: Vec3::from_array(cam.position),
-            yaw: cam.yaw,
-            pitch: cam.pitch,
-            roll: cam.roll,
-            fov_y: cam.fov_y,
-            aspect: cam.aspect,
-            near: cam.near_dist,
-            far: cam.far_dist,
-        };
-        b.cull(&w.world, &c.view(), &mut s.scratch, &mut s.visible);
-        let n = s.visible.leaves.len().min(capacity);
-        if n > 0 {
-            // SAFETY: non-null and writable for `capacity >= n` entries per the contract.
-            let dst = unsafe { std::slice::from_raw_parts_mut(out_leaves, n) };
-            dst.copy_from_slice(&s.visible.leaves[..n]);
-        }
-        *count = s.visible.leaves.len();
-        SL_OK
     })
 }
 

@@ -54,6 +54,17 @@ int main(int argc, char **argv) {
     printf("\n");
     if (sl_visible_leaves(world, scratch, &cam, 7, leaves, count, &again) != SL_ERR_BACKEND) return 97;
     free(leaves);
+    /* Visible faces, then the same with back faces culled in the walk. */
+    for (int cull = 0; cull < 2; cull++) {
+        if (sl_visible_faces(world, scratch, &cam, SL_BACKEND_PVS, cull, NULL, 0, &count) != SL_OK) return 45;
+        uint32_t *faces = malloc((count + 1) * sizeof(uint32_t));
+        if (sl_visible_faces(world, scratch, &cam, SL_BACKEND_PVS, cull, faces, count, &again) != SL_OK || again != count) return 46;
+        printf("faces%d %zu:", cull, count);
+        for (size_t i = 0; i < count; i++) printf(" %u", faces[i]);
+        printf("\n");
+        free(faces);
+    }
+    if (sl_visible_faces(world, scratch, &cam, SL_BACKEND_PVS, 1, NULL, 1, &count) != SL_ERR_NULL) return 47;
     sl_scratch_free(scratch);
 
     uint32_t nleaves = sl_world_num_leaves(world), nclusters = sl_world_num_clusters(world);
@@ -222,10 +233,16 @@ fn expected(world: &World, eye: Vec3) -> String {
     let mut out = Visible::default();
     Pvs.cull(world, &cam.view(), &mut Scratch::new(world), &mut out);
     let list = |l: &[u32]| -> String { l.iter().map(|x| format!(" {x}")).collect() };
+    let mut faces = String::new();
+    for cull in [false, true] {
+        let mut out = Visible::default();
+        Pvs.cull(world, &cam.view().with_back_face_culling(cull), &mut Scratch::new(world), &mut out);
+        faces += &format!("faces{} {}:{}\n", i32::from(cull), out.faces.len(), list(&out.faces));
+    }
     let draw = world.draw();
     let contents = |l: u32| world.leaf_contents(l).expect("leaf").code();
     let mut s = format!(
-        "version {}\nleaf {leaf}\n{trace}\nvisible {}:{}\ncounts {} {} {} {} {}\ncontents {} {}\n",
+        "version {}\nleaf {leaf}\n{trace}\nvisible {}:{}\n{faces}counts {} {} {} {} {}\ncontents {} {}\n",
         env!("CARGO_PKG_VERSION"),
         out.leaves.len(),
         list(&out.leaves),
@@ -400,6 +417,10 @@ fn c_program_agrees_with_the_rust_api() {
             }
             assert_eq!(got.lines().count(), want.lines().count(), "{what}");
             assert!(got.lines().nth(3).is_some_and(|l| l != "visible 0:"), "something is visible: {got}");
+            // Culling in the walk drops some of the visible faces.
+            let faces =
+                |k: &str| got.lines().find_map(|l| l.strip_prefix(k)).map(|l| l.split_whitespace().count());
+            assert!(faces("faces1 ") < faces("faces0 "), "{what}: back faces culled");
             let origins: Vec<_> = world.draw().models().iter().map(|m| m.origin).collect();
             assert!(path != &cases[0].0 || origins[1] == glam::Vec3A::new(8.0, -16.0, 24.5), "{origins:?}");
             // The eye is in open space, and a leaf-contents code tells C about solid.
