@@ -20,11 +20,12 @@
 //!   `r` whenever row `s ^ 1` lacks `r ^ 1` (`symmetry`), before the flow and after every batch.
 //!   Rows stay supersets of the truth and later flows narrow by them.
 //! - **Known sight lines prune**: a flow that reaches a new cluster checks the line between the
-//!   middles of its clipped source and target against the chain's windings (`certify`); when
-//!   it passes, the clusters on it see each other for sure, and later flows from those clusters
-//!   start with them marked seen (saved in checkpoints with the rows). On E1M2 this cuts the
-//!   chains by a quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a
-//!   list per chain (a corridor of 400 leaves once held 3 GB of such lists).
+//!   middles of its clipped source and target (or, failing that, a line through the middle of a
+//!   clipped pass portal) against the chain's windings (`certify`); when it passes, the
+//!   clusters on it see each other for sure, and later flows from those clusters start with them
+//!   marked seen (saved in checkpoints with the rows). On E1M2 this cuts the chains by a
+//!   quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a list per chain
+//!   (a corridor of 400 leaves once held 3 GB of such lists).
 //! - **Bounded depth**: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep and then
 //!   counts everything it might still see as seen, so a thread's working set is that many rows
 //!   whatever the input.
