@@ -1,7 +1,9 @@
 //! Certified sight lines: a segment checked to pass through every winding of a portal chain.
 //!
 //! When a flow reaches a new cluster, the line from the middle of its clipped source to the middle
-//! of its clipped target is tested exactly against the *original* windings of the chain. If it
+//! of its clipped target (and, when that misses, lines through the middle of a clipped pass
+//! portal, [`extend`]ed to the source's or the target's plane) is tested exactly against the
+//! *original* windings of the chain. If it
 //! crosses each of them, in order, from behind to in front, and at least [`CERTIFY_MARGIN`] inside
 //! every edge, that line is a sight line of the portal model: the clusters it runs through truly
 //! see each other, and every conservative flow keeps those pairs, in either direction. Later flows
@@ -47,6 +49,17 @@ pub fn inside(pts: &[DVec3], normal: DVec3, x: DVec3) -> bool {
         }
     }
     true
+}
+
+/// Where the line from `from` through `through` meets `plane`; `None` when it runs (nearly)
+/// parallel to the plane. Any point will do as a candidate: [`crosses`] and [`inside`] decide.
+pub fn extend(from: DVec3, through: DVec3, plane: &Plane) -> Option<DVec3> {
+    let d = through - from;
+    let along = plane.normal.dot(d);
+    if along.abs() <= 1e-9 * d.length() {
+        return None;
+    }
+    Some(from + d * (-plane.distance(from) / along))
 }
 
 /// The segment `a → b` crosses every (plane, winding) of `chain` in order: each from behind to in
@@ -101,6 +114,17 @@ mod tests {
         assert!(!crosses(graze.0, graze.1, chain.iter().map(|(p, w)| (p, *w))));
         // A segment ending before the last opening.
         assert!(!crosses(a, DVec3::new(15.0, 4.0, 4.0), chain.iter().map(|(p, w)| (p, *w))));
+    }
+
+    #[test]
+    fn extend_meets_the_plane_along_the_line_or_gives_none_when_parallel() {
+        let plane = Plane { normal: DVec3::X, dist: 4.0 };
+        let p = extend(DVec3::ZERO, DVec3::new(1.0, 1.0, 0.5), &plane).expect("meets");
+        assert!((p - DVec3::new(4.0, 4.0, 2.0)).length() < 1e-12, "{p}");
+        // Backwards too: from beyond the plane through a point further beyond.
+        let q = extend(DVec3::new(8.0, 0.0, 0.0), DVec3::new(6.0, 1.0, 0.0), &plane).expect("meets");
+        assert!((q - DVec3::new(4.0, 2.0, 0.0)).length() < 1e-12, "{q}");
+        assert_eq!(extend(DVec3::ZERO, DVec3::new(0.0, 1.0, 1.0), &plane), None);
     }
 
     #[test]

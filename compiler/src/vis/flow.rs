@@ -296,8 +296,9 @@ impl Flow {
 
 impl Flow {
     /// Frame `k` was just reached through a new cluster: if the line from the middle of its
-    /// clipped source to the middle of its clipped target crosses every original winding of the
-    /// chain (frames `1..k`), record seeds: every two clusters the line runs through see each
+    /// clipped source to the middle of its clipped target, or one through the middle of the
+    /// first or last clipped pass portal, crosses every original winding of the chain (frames
+    /// `1..k`), record seeds: every two clusters the line runs through see each
     /// other. Those are the chain's clusters: the base portal's owner, then the cluster each
     /// frame `0..=k` reached. Pairs among the first [`Frame::paired`] of them are already
     /// recorded; the frame's chain is then fully paired.
@@ -311,18 +312,34 @@ impl Flow {
         ) else {
             return;
         };
-        let ok = base.plane.distance(b) > certify::CERTIFY_MARGIN
-            && target.plane.distance(a) < -certify::CERTIFY_MARGIN
-            && certify::inside(g.winding(base), base.plane.normal, a)
-            && certify::inside(g.winding(target), target.plane.normal, b)
-            && certify::crosses(
-                a,
-                b,
-                chain[1..k].iter().map(|f| {
-                    let p = &g.portals[f.portal as usize];
-                    (&p.plane, g.winding(p))
-                }),
-            );
+        let certified = |a: DVec3, b: DVec3| {
+            base.plane.distance(b) > certify::CERTIFY_MARGIN
+                && target.plane.distance(a) < -certify::CERTIFY_MARGIN
+                && certify::inside(g.winding(base), base.plane.normal, a)
+                && certify::inside(g.winding(target), target.plane.normal, b)
+                && certify::crosses(
+                    a,
+                    b,
+                    chain[1..k].iter().map(|f| {
+                        let p = &g.portals[f.portal as usize];
+                        (&p.plane, g.winding(p))
+                    }),
+                )
+        };
+        // Then lines through the middle of the last and of the first clipped pass portal, from
+        // the source's middle on to the target's plane, and from the target's middle back to the
+        // source's plane: where openings are offset, the middles' line misses one of them.
+        let through = |j: usize| certify::centroid(&chain[j].pass.p[..chain[j].pass.n]);
+        let passes: &[usize] = match k {
+            0 | 1 => &[],
+            2 => &[1],
+            _ => &[k - 1, 1],
+        };
+        let ok = certified(a, b)
+            || passes.iter().filter_map(|&j| through(j)).any(|m| {
+                certify::extend(a, m, &target.plane).is_some_and(|b2| certified(a, b2))
+                    || certify::extend(b, m, &base.plane).is_some_and(|a2| certified(a2, b))
+            });
         if !ok {
             return;
         }

@@ -20,11 +20,12 @@
 //!   `r` whenever row `s ^ 1` lacks `r ^ 1` (`symmetry`), before the flow and after every batch.
 //!   Rows stay supersets of the truth and later flows narrow by them.
 //! - **Known sight lines prune**: a flow that reaches a new cluster checks the line between the
-//!   middles of its clipped source and target against the chain's windings (`certify`); when
-//!   it passes, the clusters on it see each other for sure, and later flows from those clusters
-//!   start with them marked seen (saved in checkpoints with the rows). On E1M2 this cuts the
-//!   chains by a quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a
-//!   list per chain (a corridor of 400 leaves once held 3 GB of such lists).
+//!   middles of its clipped source and target (or, failing that, a line through the middle of a
+//!   clipped pass portal) against the chain's windings (`certify`); when it passes, the
+//!   clusters on it see each other for sure, and later flows from those clusters start with them
+//!   marked seen (saved in checkpoints with the rows). On E1M2 this cuts the chains by a
+//!   quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a list per chain
+//!   (a corridor of 400 leaves once held 3 GB of such lists).
 //! - **Bounded depth**: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep and then
 //!   counts everything it might still see as seen, so a thread's working set is that many rows
 //!   whatever the input.
@@ -342,10 +343,11 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 }
 
 /// An upper estimate of the bytes [`run`] allocates for `prt` with `opts`, computed from the
-/// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows, their copy in a
-/// checkpoint log), the cluster × cluster matrices (certified seeds and the batch's pending ones,
-/// cluster rows, their snapshot and the `mightsee` rows for statistics), per-thread rows and
-/// flow frames (at most [`MAX_FLOW_DEPTH`] deep), and the portal graph.
+/// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows; with a state file
+/// its log, `state::bytes_bound`, seed pairs included), the cluster × cluster matrices
+/// (certified seeds and the batch's pending ones, cluster rows, their snapshot and the
+/// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`]
+/// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     let threads = match opts.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -360,11 +362,11 @@ pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
     let mut matrices = 2 * one_way * row;
     if !opts.fast {
-        // The certified seeds (known and pending), and the checkpoint log (at most one row per
-        // portal).
+        // The certified seeds (known and pending), and the checkpoint log (a row per portal and
+        // up to every seed pair, with its encoding while saved or loaded).
         matrices += 2 * nc * cluster_row;
         if opts.state.is_some() {
-            matrices += one_way * row;
+            matrices += state::bytes_bound(one_way, row / 8, nc);
         }
     }
     // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.

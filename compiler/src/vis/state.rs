@@ -152,6 +152,17 @@ impl State {
     }
 }
 
+/// An upper bound of the bytes a state log takes for `portals` one-way portals of `words` words
+/// and `clusters` clusters: every portal finished (its row, chains and pair count) and every
+/// seed pair recorded (each pair is new when set, so at most `clusters²` of 8 bytes, 64 times the
+/// seed matrix), counted twice: saving encodes the whole log into one buffer beside it, and
+/// loading holds the file's bytes beside the decoded log.
+pub fn bytes_bound(portals: u128, words: u128, clusters: u128) -> u128 {
+    let per_portal = 8 * words + 8 + 4;
+    let header = 8 * 8 + 4 * 8 + TRAILER as u128;
+    2 * (portals * per_portal + 8 * clusters * clusters + header)
+}
+
 /// FNV-1a, 64 bits: a stable hash for input identity and the checksum (not for security). Any
 /// single changed byte changes it (each step is a bijection of the hash).
 pub fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
@@ -375,6 +386,24 @@ mod tests {
         }
         assert_eq!(load(&dir.join("absent"), &expect(42)).expect("absent"), None);
         std::fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    #[test]
+    fn bytes_bound_covers_a_full_log_and_its_encoding() {
+        // Every portal finished and every cluster pair recorded: the largest log of its counts.
+        let (portals, words, clusters) = (70usize, 2usize, 9u32);
+        let mut st = State::new(1, portals, words, clusters as usize);
+        let all: Vec<(u32, u32)> = (0..clusters).flat_map(|a| (0..clusters).map(move |b| (a, b))).collect();
+        for k in 0..portals {
+            let pairs = if k + 1 == portals { all.clone() } else { Vec::new() };
+            st.push(&vec![u64::MAX; words], u64::MAX, pairs);
+        }
+        let encoded = encode(&st).expect("encode").len() as u128;
+        let in_memory =
+            (st.rows.len() * 8 + st.chains.len() * 8 + st.added.len() * 4 + st.pairs.len() * 8) as u128;
+        let bound = bytes_bound(portals as u128, words as u128, u128::from(clusters));
+        assert!(bound >= encoded + in_memory, "bound {bound} < {encoded} + {in_memory}");
+        assert!(bound <= 2 * (encoded + in_memory), "bound {bound} far above {encoded} + {in_memory}");
     }
 
     #[test]

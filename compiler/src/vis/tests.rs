@@ -398,6 +398,10 @@ fn memory_estimate_covers_the_matrices_and_max_memory_refuses() {
     let prt = &files[0].1;
     let opts = VisOptions { threads: 2, ..VisOptions::default() };
     let need = memory_estimate(prt, &opts);
+    // A state file adds its log: a row per portal and up to every seed pair (8 bytes each).
+    let with_state = memory_estimate(prt, &VisOptions { state: Some("s.state".into()), ..opts.clone() });
+    let (one_way, nc) = (2 * prt.portals.len() as u64, u64::from(prt.num_clusters));
+    assert!(with_state >= need + one_way * 8 * bits::words(one_way as usize) as u64 + 8 * nc * nc);
     let err =
         run(prt, &VisOptions { max_memory: Some(need - 1), ..opts.clone() }, &none()).expect_err("refused");
     assert!(

@@ -3,7 +3,8 @@
 //!
 //! `cargo bench -p sightline --bench vis_growth` prints a Markdown table: rooms, storeys, vis
 //! leaves, portals, full vis seconds (wall and CPU, 2 threads), chains, average visible leaves,
-//! fast vis seconds.
+//! fast vis seconds. `-- --write DIR` instead writes the maps (`gen_RxRxS.map`) for measuring the
+//! `sightline` binary itself or other compilers.
 
 use std::time::Instant;
 
@@ -20,12 +21,26 @@ fn cpu_seconds() -> f64 {
     (ticks(11) + ticks(12)) / 100.0
 }
 
+/// Rooms per side and storeys of the generated maps, smallest first.
+const SIZES: [(u32, u32); 9] = [(2, 1), (2, 2), (4, 1), (4, 2), (6, 3), (8, 3), (12, 3), (16, 4), (20, 5)];
+
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(dir) = args.windows(2).find(|w| w[0] == "--write").map(|w| w[1].clone()) {
+        std::fs::create_dir_all(&dir).expect("output folder");
+        for (rooms, storeys) in SIZES {
+            let params = MapGenParams { rooms_x: rooms, rooms_y: rooms, storeys, seed: 7 };
+            let path = format!("{dir}/gen_{rooms}x{rooms}x{storeys}.map");
+            std::fs::write(&path, generate(&params)).expect("write");
+            println!("{path}");
+        }
+        return;
+    }
     println!(
         "| rooms | storeys | vis leaves | portals | full wall s | full CPU s | chains | avg visible | fast wall s |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
-    for (rooms, storeys) in [(2, 1), (4, 1), (4, 2), (6, 3), (8, 3), (12, 3), (16, 4), (20, 5)] {
+    for (rooms, storeys) in SIZES {
         let params = MapGenParams { rooms_x: rooms, rooms_y: rooms, storeys, seed: 7 };
         let text = generate(&params);
         let file = format!("gen_{rooms}x{rooms}x{storeys}.map");

@@ -6,8 +6,9 @@
 //! `cargo bench -p sightline --bench vis_shapes` prints a Markdown table: shape, size, vis leaves,
 //! portals, full vis seconds (wall and CPU, 2 threads), peak resident memory of the vis alone,
 //! chains, average visible leaves. `-- --write DIR` instead writes the inputs (`corridor_N.prt`,
-//! `pillar_N.map`, `tiny_N.map`) for measuring the `sightline` binary itself; `-- --sizes small`
-//! runs only the smaller sizes.
+//! `pillar_N.map`, `tiny_N.map`) for measuring the `sightline` binary itself (or other compilers);
+//! `-- --sizes small` runs only the smaller sizes, `-- --size N` (repeatable) only size `N` of
+//! every shape.
 
 use std::time::Instant;
 
@@ -83,10 +84,17 @@ fn portal_file(name: &str, n: u32, input: Input) -> PortalFile {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let small_only = args.windows(2).any(|w| w[0] == "--sizes" && w[1] == "small");
+    let only: Vec<u32> =
+        args.windows(2).filter(|w| w[0] == "--size").map(|w| w[1].parse().expect("--size N")).collect();
+    let sizes = |shape: &Shape| match (only.is_empty(), small_only) {
+        (false, _) => only.clone(),
+        (true, true) => shape.small.to_vec(),
+        (true, false) => [shape.small, shape.large].concat(),
+    };
     if let Some(dir) = args.windows(2).find(|w| w[0] == "--write").map(|w| w[1].clone()) {
         std::fs::create_dir_all(&dir).expect("output folder");
         for shape in &SHAPES {
-            for &n in shape.small.iter().chain(shape.large) {
+            for n in sizes(shape) {
                 let (file, text) = match (shape.source)(n) {
                     Input::Prt(prt) => {
                         (format!("{}_{n}.prt", shape.name), sightline_formats::prt::write(&prt))
@@ -104,8 +112,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for shape in &SHAPES {
-        let sizes = if small_only { shape.small.to_vec() } else { [shape.small, shape.large].concat() };
-        for n in sizes {
+        for n in sizes(shape) {
             let prt = portal_file(shape.name, n, (shape.source)(n));
             let before = status_kib("VmRSS:").unwrap_or(0);
             let peak_known = reset_peak();
