@@ -212,3 +212,24 @@ fn the_scripted_walk_on_e1m1_hides_and_draws() {
         assert!(json.contains(key), "{json}");
     }
 }
+
+#[test]
+fn a_damaged_level_fails_to_load_with_its_name_and_place() {
+    let Some(dir) = sightline_formats::shared_maps::dir() else {
+        eprintln!("note: real maps not found (set SIGHTLINE_MAPS); the damaged-file check is not run");
+        return;
+    };
+    let Ok(bytes) = std::fs::read(dir.join("ericw/e1m1.vis.bsp")) else {
+        eprintln!("note: ericw/e1m1.vis.bsp missing; the damaged-file check is not run");
+        return;
+    };
+    let tmp = std::env::temp_dir().join(format!("sightline-bevy-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    let path = tmp.join("cut.bsp");
+    std::fs::write(&path, &bytes[..1000]).expect("write");
+    let err = headless::walk_file(&path, 1).expect_err("a cut file");
+    let _ = std::fs::remove_dir_all(&tmp);
+    let msg = err.to_string();
+    assert!(msg.contains("cut.bsp") && msg.contains("lump"), "{msg}");
+    assert!(!msg.contains('\n'), "one line: {msg}");
+}
