@@ -213,3 +213,81 @@ pub fn build(world: &World) -> LevelMeshes {
         .collect();
     LevelMeshes { groups, models }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bevy::mesh::VertexAttributeValues;
+    use sightline_runtime::synth::grid_level;
+
+    /// Three open cells in a row; cell 1's leaf also lists a face of cell 0 (as a leaf lists a
+    /// face it shares with a neighbour).
+    fn shared_face_world() -> World {
+        let mut level = grid_level([3, 1, 1], 64.0, true, |_, _, _| false);
+        let (l0, l1) = (level.leaves[0], level.leaves[1]);
+        let first = l1.first_face as usize;
+        let mut list = level.leaf_faces[first..first + l1.num_faces as usize].to_vec();
+        list.push(level.leaf_faces[l0.first_face as usize]);
+        level.leaves[1].first_face = level.leaf_faces.len() as u32;
+        level.leaves[1].num_faces = list.len() as u32;
+        level.leaf_faces.extend(list);
+        World::new(&level).expect("valid")
+    }
+
+    #[test]
+    fn a_face_is_meshed_once_and_its_group_is_seen_from_every_cluster_listing_it() {
+        let world = shared_face_world();
+        let built = build(&world);
+        let clusters: Vec<Vec<u32>> = built.groups.iter().map(|g| g.clusters.clone()).collect();
+        assert_eq!(clusters, vec![vec![0, 1], vec![1], vec![2]]);
+        // Every face once: four corners and two triangles each.
+        let corners: usize = built.groups.iter().map(|g| g.mesh.count_vertices()).sum();
+        assert_eq!(corners, 4 * world.draw().num_faces());
+        assert!(built.models.is_empty());
+    }
+
+    /// On a real map (Quake's order: clockwise from the front), every triangle of every mesh
+    /// turns counter-clockwise around its normal, as Bevy's front faces do.
+    #[test]
+    fn corners_turn_counter_clockwise_around_the_normal_in_bevy_axes() {
+        let Some(path) = sightline_formats::shared_maps::dir().map(|d| d.join("ericw/e1m1.vis.bsp")) else {
+            eprintln!("note: real maps not found (set SIGHTLINE_MAPS); the winding check is not run");
+            return;
+        };
+        let Ok(world) = sightline_runtime::load::load_path(&path) else {
+            eprintln!("note: {} missing; the winding check is not run", path.display());
+            return;
+        };
+        let built = build(&world);
+        let meshes = built.groups.iter().map(|g| &g.mesh).chain(built.models.iter().map(|m| &m.mesh));
+        let mut triangles = 0;
+        for mesh in meshes {
+            let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+                panic!("positions")
+            };
+            let Some(VertexAttributeValues::Float32x3(n)) = mesh.attribute(Mesh::ATTRIBUTE_NORMAL) else {
+                panic!("normals")
+            };
+            let Some(Indices::U32(idx)) = mesh.indices() else { panic!("indices") };
+            for t in idx.chunks(3) {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from_array(p[i as usize]));
+                let normal = Vec3::from_array(n[t[0] as usize]);
+                // Slivers (collinear corners, common in Quake faces) have no reliable turn;
+                // every other triangle must face its normal.
+                let turn = (b - a).cross(c - a);
+                if turn.length() > 1e-3 * (b - a).length() * (c - a).length() {
+                    assert!(turn.dot(normal) > 0.0, "triangle {t:?} faces away from its normal");
+                    triangles += 1;
+                }
+            }
+        }
+        assert!(triangles > 1000, "{triangles} triangles checked");
+    }
+
+    #[test]
+    fn texture_colours_are_stable_and_tool_textures_are_not_meshed() {
+        assert_eq!(texture_color("WALL1"), texture_color("wall1"));
+        assert_ne!(texture_color("wall1"), texture_color("wall2"));
+        assert!(!TextureKind::of("trigger").draws() && TextureKind::of("sky1").draws());
+    }
+}
