@@ -42,12 +42,16 @@
 //!   inconsistent file is a [`VisError::State`], never a different PVS.
 //! - **Fits, or refuses**: before allocating, [`memory_estimate`] bounds what the run will take
 //!   from the counts alone (portal and cluster bit matrices, per-thread rows, the graph); over the
-//!   memory available or [`VisOptions::max_memory`] the run is a [`VisError::Memory`] at once.
+//!   memory available or [`VisOptions::max_memory`] the run is a [`VisError::Memory`] at once,
+//!   unless [`VisOptions::coarsen`] asks to merge clusters until it fits (`coarsen`): a looser
+//!   PVS, still never hiding a visible leaf (merging only drops portals from chains, relaxing
+//!   their constraints), reported in [`VisStats::coarsened`].
 //! - **Fails, never hangs**: a panic in a flow worker (or anywhere in a run) stops every worker
 //!   and returns [`VisError::Panicked`].
 
 mod base;
 mod certify;
+pub mod coarsen;
 pub mod farplane;
 mod flow;
 mod graph;
@@ -106,6 +110,8 @@ pub struct VisOptions {
     /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
     /// limit too.
     pub max_memory: Option<u64>,
+    /// Over that limit, merge clusters until the estimate fits ([`coarsen`]) instead of refusing.
+    pub coarsen: bool,
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
     pub(crate) panic_at: Option<usize>,
@@ -123,6 +129,7 @@ impl Default for VisOptions {
             stop_after: None,
             cancel: None,
             max_memory: None,
+            coarsen: false,
             #[cfg(test)]
             panic_at: None,
         }
@@ -174,7 +181,7 @@ pub enum VisError {
     #[error("thread pool: {0}")]
     Threads(String),
     /// The run would need more memory than is available or allowed; nothing was allocated.
-    #[error("{what} would need {need_text} for {reason}: more than the {limit_text} {source_of_limit}", need_text = crate::memory::format_size(*need), limit_text = crate::memory::format_size(*limit))]
+    #[error("{what} would need {need_text} for {reason}: more than the {limit_text} {source_of_limit}; {hint}", need_text = crate::memory::format_size(*need), limit_text = crate::memory::format_size(*limit))]
     Memory {
         /// Estimated bytes ([`memory_estimate`]).
         need: u64,
@@ -186,6 +193,8 @@ pub enum VisError {
         reason: String,
         /// Where the limit comes from.
         source_of_limit: crate::memory::LimitSource,
+        /// What to do about it (rerun with `--coarsen`, or that coarsening did not help).
+        hint: String,
     },
     /// A bug: vis panicked (in a flow worker or elsewhere); every worker was stopped.
     #[error("vis panicked (a bug; every worker was stopped): {0}")]
@@ -231,6 +240,9 @@ pub struct VisStats {
     pub flow_seconds: f64,
     /// Seconds building cluster rows.
     pub rows_seconds: f64,
+    /// When clusters were merged to fit memory ([`VisOptions::coarsen`]): the rows are still
+    /// over the input's clusters, but looser than they allow.
+    pub coarsened: Option<coarsen::CoarsenStats>,
 }
 
 /// The PVS: one row per cluster (bits over clusters), expandable to leaves.
@@ -310,14 +322,32 @@ pub fn run(
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
     check(prt)?;
-    check_memory(prt, opts)?;
+    // Merges are sized for one thread, so every thread count merges alike (and gives the same
+    // PVS); the run then has to fit with its own threads.
+    let single = VisOptions { threads: 1, ..opts.clone() };
+    let coarse = match check_memory(prt, &single) {
+        Err(e) if opts.coarsen => match &e {
+            VisError::Memory { limit, .. } => {
+                let limit = *limit;
+                Some(coarsen::fit(prt, &single, limit).ok_or(e)?)
+            }
+            _ => return Err(e),
+        },
+        _ => None,
+    };
+    check_memory(coarse.as_ref().map_or(prt, |c| &c.prt), opts)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
         .map_err(|e| VisError::Threads(e.to_string()))?;
     let threads = pool.current_num_threads();
-    let run = || pool.install(|| run_in_pool(prt, opts, progress));
+    let input = coarse.as_ref().map_or(prt, |c| &c.prt);
+    let run = || pool.install(|| run_in_pool(input, opts, progress));
     let mut result = std::panic::catch_unwind(AssertUnwindSafe(run)).map_err(panic_error)??;
+    if let Some(c) = coarse {
+        result = coarsen::expand(result, prt, &c.new_id);
+        result.stats.coarsened = Some(c.stats);
+    }
     result.stats.threads = threads;
     Ok(result)
 }
@@ -349,14 +379,36 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 /// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`]
 /// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
+    let counts = Counts {
+        portals: prt.portals.len(),
+        clusters: prt.num_clusters,
+        leaves: prt.num_leaves,
+        points: prt.portals.iter().map(|p| p.winding.points.len() as u128).sum(),
+    };
+    estimate(counts, opts)
+}
+
+/// The counts [`memory_estimate`] depends on.
+#[derive(Debug, Clone, Copy)]
+struct Counts {
+    /// Portal lines.
+    portals: usize,
+    clusters: u32,
+    leaves: u32,
+    /// Winding points over all portal lines.
+    points: u128,
+}
+
+/// [`memory_estimate`] from the counts.
+fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let threads = match opts.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         t => t,
     } as u128;
-    let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
+    let (one_way, nc) = (2 * counts.portals as u128, u128::from(counts.clusters));
     let row = 8 * bits::words(one_way as usize) as u128;
     let cluster_row = 8 * bits::words(nc as usize) as u128;
-    let points: u128 = prt.portals.iter().map(|p| p.winding.points.len() as u128).sum();
+    let points = counts.points;
     let graph =
         one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8) + 2 * 24 * points + nc * 2 * 24;
     // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
@@ -370,7 +422,7 @@ pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
         }
     }
     // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
-    let clusters = 3 * nc * cluster_row + u128::from(prt.num_leaves) * 8 + nc * 24;
+    let clusters = 3 * nc * cluster_row + u128::from(counts.leaves) * 8 + nc * 24;
     // Base vis's `tested` row and flood stack (a cluster per portal at most), the cluster rows'
     // portal row; with the flow, its state and the row it fills.
     let mut per_thread = 2 * row + 4 * one_way;
@@ -402,6 +454,12 @@ fn check_memory(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
                 prt.portals.len()
             ),
             source_of_limit,
+            hint: if opts.coarsen {
+                "merging clusters (--coarsen) does not make it fit either (merges are sized for one thread: fewer threads may fit)"
+            } else {
+                "rerun with --coarsen to merge clusters until it fits (a looser PVS)"
+            }
+            .to_string(),
         }),
         _ => Ok(()),
     }

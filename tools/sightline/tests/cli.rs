@@ -1175,3 +1175,34 @@ fn mutated_trees_never_panic_portals_or_vis_from_the_bsp() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Over `--max-memory`, vis refuses and names `--coarsen` (exit 2); with it, vis merges clusters
+/// until the run fits, warns, and reports the merge in JSON, for the same leaves. (Merges are
+/// sized for one thread, so that any thread count gives the same PVS.)
+#[test]
+fn vis_coarsen_merges_clusters_until_it_fits() {
+    let Some(src) = shared_map("ericw/dm1.prt") else { return };
+    let dir = temp_dir("coarsen");
+    let prt = dir.join("dm1.prt");
+    std::fs::copy(&src, &prt).expect("copy");
+    let refused = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K"]);
+    assert_eq!(code(&refused), 2, "{}", stderr(&refused));
+    assert!(stderr(&refused).contains("rerun with --coarsen"), "{}", stderr(&refused));
+    assert!(!dir.join("dm1.vis").exists());
+    let o = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K", "--coarsen", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: vis did not fit memory: merged 410 clusters into "),
+        "{}",
+        stderr(&o)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    let c = &report["vis"]["coarsened"];
+    assert_eq!(c["clusters_before"], 410, "{report}");
+    let after = c["clusters_after"].as_u64().expect("clusters_after");
+    assert!(after > 0 && after < 410, "{report}");
+    assert!(c["portals_after"].as_u64().expect("portals_after") < 983, "{report}");
+    assert!(c["estimate"].as_u64().expect("estimate") <= 2000 * 1024, "{report}");
+    assert_eq!(report["vis"]["leaves"], 415);
+    assert!(dir.join("dm1.vis").exists());
+}

@@ -164,6 +164,12 @@ fn report(args: &Args, c: &Compiled, out: &Path, prt: Option<&Path>, pts: &Path)
         if v.resumed_portals > 0 {
             println!("  vis: {} portals resumed from the state file", v.resumed_portals);
         }
+        if let Some(k) = &v.coarsened {
+            println!(
+                "  vis: merged {} clusters into {} to fit memory (--coarsen): the PVS is looser",
+                k.clusters_before, k.clusters_after
+            );
+        }
     } else {
         println!("  no vis: the level has no PVS");
     }

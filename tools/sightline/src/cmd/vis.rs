@@ -311,12 +311,24 @@ pub struct VisFlags {
     /// 8G); the memory the machine has available is always a limit too.
     #[arg(long, value_name = "SIZE", value_parser = sightline_compiler::memory::parse_size)]
     pub max_memory: Option<u64>,
+    /// Over the memory limit, merge clusters into coarser ones until the vis fits instead of
+    /// refusing: a looser PVS (never hiding a visible leaf), reported with a warning.
+    #[arg(long)]
+    pub coarsen: bool,
 }
 
 impl Default for VisFlags {
     /// The command-line defaults: full vis at level 4, no state file.
     fn default() -> Self {
-        Self { fast: false, level: 4, state: None, checkpoint_secs: 180, stop_after: None, max_memory: None }
+        Self {
+            fast: false,
+            level: 4,
+            state: None,
+            checkpoint_secs: 180,
+            stop_after: None,
+            max_memory: None,
+            coarsen: false,
+        }
     }
 }
 
@@ -331,6 +343,7 @@ impl VisFlags {
             stop_after: self.stop_after,
             cancel: Some(ctrl_c_flag()),
             max_memory: self.max_memory,
+            coarsen: self.coarsen,
             ..VisOptions::default()
         }
     }
@@ -686,7 +699,19 @@ pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyho
     base.finish_and_clear();
     flow.finish_and_clear();
     match result {
-        Ok(r) => Ok(r),
+        Ok(r) => {
+            if let Some(c) = &r.stats.coarsened {
+                eprintln!(
+                    "warning: vis did not fit memory: merged {} clusters into {} ({} of {} portals left, estimate {}); the PVS is looser",
+                    c.clusters_before,
+                    c.clusters_after,
+                    c.portals_after,
+                    c.portals_before,
+                    sightline_compiler::memory::format_size(c.estimate)
+                );
+            }
+            Ok(r)
+        }
         Err(vis::VisError::Interrupted { done, total }) => {
             bail!(interrupted(done, total, opts.state.is_some()))
         }

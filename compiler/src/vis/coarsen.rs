@@ -1,0 +1,227 @@
+//! Coarsening: merge clusters into fewer, larger ones until a vis that would not fit memory
+//! does ([`VisOptions::coarsen`]). The result is a portal file over the same leaves whose
+//! clusters are unions of the input's, with only the portals whose two sides land in different
+//! new clusters; vis runs on it as on any PRT2 file, and a leaf's row is its new cluster's row.
+//! `expand` then gives each input cluster its merged cluster's row (over input clusters), so
+//! callers see the input's clusters (a compile stores rows per cluster, the far plane bounds them).
+//!
+//! # Why the PVS stays conservative
+//! A real sight line crosses a sequence of portals, each leading from one cluster into the next.
+//! After merging, the portals inside a merged cluster are gone, and the line crosses the
+//! subsequence of the remaining ones, consecutive ones sharing a (merged) cluster: a chain of the
+//! coarse file. Every constraint vis puts on that chain (clipping to each portal's front,
+//! separating planes between its portals) is one it put on the longer fine chain, which held
+//! the same portals and more; so constraints are only relaxed, every cluster pair visible
+//! before stays visible, and the leaf rows (expanded from merged clusters) only grow.
+//!
+//! # Grouping
+//! A cluster's centre is the centre of the bounds of its portal windings (a cluster without
+//! portals stays alone). For a grid of cubic cells of side `cell`, anchored at the lowest corner
+//! of all centres, two clusters merge when a portal joins them and both centres fall in the same
+//! cell; the groups are the connected components of those portals. Groups are therefore
+//! spatially compact and connected through portals. `cell` starts at the median cluster extent and
+//! doubles until the [`super::memory_estimate`] of the result fits the limit, or until one cell
+//! holds every centre (then the groups are the connected components of the whole portal graph,
+//! the coarsest this scheme makes); if that does not fit either, there is no coarsening.
+//!
+//! # Determinism
+//! [`super::run`] sizes the merge for one thread (then checks the run fits with its own), so the
+//! merge and the PVS are the same for any thread count. Components are found by union-find with the lower cluster as root; new clusters are numbered
+//! in the order of their lowest input cluster, and portals keep their input order. Nothing
+//! depends on threads or hashing.
+
+use glam::DVec3;
+use sightline_formats::bits;
+use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
+
+use super::{Counts, VisOptions, VisResult};
+
+/// How many times the cell may double (from the median cluster extent, this spans any
+/// coordinates a portal file holds).
+const MAX_DOUBLINGS: u32 = 64;
+
+/// What coarsening did (reported so a mapper knows the PVS is looser than it could be).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct CoarsenStats {
+    /// Clusters in the input.
+    pub clusters_before: u32,
+    /// Clusters vis ran on.
+    pub clusters_after: u32,
+    /// Portal lines in the input.
+    pub portals_before: usize,
+    /// Portal lines vis ran on (those joining different merged clusters).
+    pub portals_after: usize,
+    /// Side of the grid cells that grouped clusters, in map units.
+    pub cell: f64,
+    /// [`super::memory_estimate`] of the run on the merged clusters plus the rows over the
+    /// input's clusters `expand` builds, in bytes.
+    pub estimate: u64,
+}
+
+/// A coarsened input: the portal file vis runs on, and the merged cluster of each input cluster.
+pub(crate) struct Coarse {
+    /// The merged portal file.
+    pub prt: PortalFile,
+    /// Per input cluster, its merged cluster.
+    pub new_id: Vec<u32>,
+    /// What was done.
+    pub stats: CoarsenStats,
+}
+
+/// Merge `prt`'s clusters until the vis estimate fits `limit` bytes (see the module docs).
+/// `None` when even the coarsest grouping does not fit.
+pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limit: u64) -> Option<Coarse> {
+    let nc = prt.num_clusters as usize;
+    // The expanded rows, one per input cluster.
+    let expanded = 8 * (nc as u64).saturating_mul(bits::words(nc) as u64);
+    let centres = centres(prt);
+    let placed: Vec<DVec3> = centres.iter().flatten().copied().collect();
+    let lo = placed.iter().fold(DVec3::splat(f64::INFINITY), |a, &b| a.min(b));
+    let hi = placed.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, &b| a.max(b));
+    let span = (hi - lo).max_element();
+    let mut cell = median_extent(prt).max(1.0);
+    for _ in 0..=MAX_DOUBLINGS {
+        let cell_of = |c: u32| centres[c as usize].map(|p| ((p - lo) / cell).floor().as_i64vec3());
+        let mut parent: Vec<u32> = (0..prt.num_clusters).collect();
+        for p in &prt.portals {
+            let [a, b] = p.leaves;
+            if a != b && cell_of(a).is_some() && cell_of(a) == cell_of(b) {
+                union(&mut parent, a, b);
+            }
+        }
+        // New numbers in the order of each group's lowest cluster (its root).
+        let mut new_id = vec![u32::MAX; nc];
+        let mut groups = 0u32;
+        for c in 0..nc {
+            let r = find(&mut parent, c as u32) as usize;
+            if new_id[r] == u32::MAX {
+                new_id[r] = groups;
+                groups += 1;
+            }
+            new_id[c] = new_id[r];
+        }
+        let kept =
+            prt.portals.iter().filter(|p| new_id[p.leaves[0] as usize] != new_id[p.leaves[1] as usize]);
+        let counts = Counts {
+            portals: kept.clone().count(),
+            clusters: groups,
+            leaves: prt.num_leaves,
+            points: kept.map(|p| p.winding.points.len() as u128).sum(),
+        };
+        let estimate = super::estimate(counts, opts).saturating_add(expanded);
+        if estimate <= limit {
+            let coarse = build(prt, &new_id, groups);
+            let stats = CoarsenStats {
+                clusters_before: prt.num_clusters,
+                clusters_after: groups,
+                portals_before: prt.portals.len(),
+                portals_after: coarse.portals.len(),
+                cell,
+                estimate,
+            };
+            return Some(Coarse { prt: coarse, new_id, stats });
+        }
+        if cell > span {
+            // One cell already held every centre: nothing coarser to try.
+            return None;
+        }
+        cell *= 2.0;
+    }
+    None
+}
+
+/// The centre of each cluster's portal windings' bounds (`None` for a cluster without portals).
+fn centres(prt: &PortalFile) -> Vec<Option<DVec3>> {
+    bounds(prt).into_iter().map(|b| b.map(|(lo, hi)| (lo + hi) * 0.5)).collect()
+}
+
+/// Per cluster, the bounds of its portal windings.
+fn bounds(prt: &PortalFile) -> Vec<Option<(DVec3, DVec3)>> {
+    let mut out: Vec<Option<(DVec3, DVec3)>> = vec![None; prt.num_clusters as usize];
+    for p in &prt.portals {
+        for &c in &p.leaves {
+            for &q in &p.winding.points {
+                let b = out[c as usize].get_or_insert((q, q));
+                *b = (b.0.min(q), b.1.max(q));
+            }
+        }
+    }
+    out
+}
+
+/// The median over clusters with portals of the largest side of their bounds (0 without any).
+fn median_extent(prt: &PortalFile) -> f64 {
+    let mut extents: Vec<f64> =
+        bounds(prt).into_iter().flatten().map(|(lo, hi)| (hi - lo).max_element()).collect();
+    extents.sort_by(f64::total_cmp);
+    extents.get(extents.len() / 2).copied().unwrap_or(0.0)
+}
+
+fn find(parent: &mut [u32], mut c: u32) -> u32 {
+    while parent[c as usize] != c {
+        let up = parent[parent[c as usize] as usize];
+        parent[c as usize] = up;
+        c = up;
+    }
+    c
+}
+
+/// Join the groups of `a` and `b`; the lower root stays root.
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    parent[ra.max(rb) as usize] = ra.min(rb);
+}
+
+/// The portal file over merged clusters `new_id` (of `groups`).
+fn build(prt: &PortalFile, new_id: &[u32], groups: u32) -> PortalFile {
+    let portals = prt
+        .portals
+        .iter()
+        .filter_map(|p| {
+            let leaves = p.leaves.map(|c| new_id[c as usize]);
+            (leaves[0] != leaves[1]).then(|| PrtPortal { leaves, winding: p.winding.clone() })
+        })
+        .collect();
+    PortalFile {
+        format: PrtFormat::Prt2,
+        num_leaves: prt.num_leaves,
+        num_clusters: groups,
+        portals,
+        leaf_clusters: prt.leaf_clusters.iter().map(|&c| new_id[c as usize]).collect(),
+    }
+}
+
+/// The PVS over `prt`'s (the input's) clusters from the PVS `coarse` over merged clusters
+/// `new_id`: an input cluster sees every input cluster in a merged cluster its own sees. The
+/// leaf rows are unchanged, so are the statistics but `clusters` and `portals` (the input's).
+pub(crate) fn expand(coarse: VisResult, prt: &PortalFile, new_id: &[u32]) -> VisResult {
+    let nc = prt.num_clusters as usize;
+    let words = bits::words(nc);
+    let mut members = vec![Vec::new(); coarse.num_clusters()];
+    for (c, &k) in new_id.iter().enumerate() {
+        members[k as usize].push(c);
+    }
+    let mut rows = vec![0u64; nc * words];
+    for (c, row) in rows.chunks_mut(words.max(1)).take(nc).enumerate() {
+        for k in bits::ones(coarse.cluster_row(new_id[c] as usize)) {
+            for &f in &members[k] {
+                bits::set(row, f);
+            }
+        }
+    }
+    let mut cluster_leaves = vec![Vec::new(); nc];
+    for (leaf, &c) in prt.leaf_clusters.iter().enumerate() {
+        cluster_leaves[c as usize].push(leaf as u32);
+    }
+    let mut stats = coarse.stats;
+    stats.clusters = prt.num_clusters;
+    stats.portals = prt.portals.len();
+    VisResult {
+        num_leaves: coarse.num_leaves,
+        leaf_clusters: prt.leaf_clusters.clone(),
+        cluster_leaves,
+        words,
+        rows,
+        stats,
+    }
+}
