@@ -378,6 +378,38 @@ fn cull_into(w: &SlWorld, s: &mut SlScratch, cam: &SlCamera, backend: i32, back_
     SL_OK
 }
 
+/// Cull a camera's view and write one of the resulting lists ([`sl_visible_leaves`] and
+/// [`sl_visible_faces`]).
+///
+/// # Safety
+/// The contract of those two functions.
+#[allow(clippy::too_many_arguments)]
+unsafe fn visible_list(
+    world: *const SlWorld,
+    scratch: *mut SlScratch,
+    camera: *const SlCamera,
+    backend: i32,
+    back_faces: bool,
+    list: fn(&Visible) -> &[u32],
+    out: *mut u32,
+    capacity: usize,
+    out_count: *mut usize,
+) -> SlStatus {
+    guard(|| {
+        // SAFETY: null or live/readable per the contract.
+        let (Some(w), Some(s), Some(cam)) =
+            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() })
+        else {
+            return null_argument();
+        };
+        match cull_into(w, s, cam, backend, back_faces) {
+            // SAFETY: forwarded contract.
+            SL_OK => unsafe { write_list(list(&s.visible), out, capacity, out_count) },
+            err => err,
+        }
+    })
+}
+
 /// Visible leaves of a camera, front to back. Writes at most `capacity` leaves to `out_leaves` and
 /// the full count to `out_count` (call again with a larger buffer when it exceeds `capacity`).
 ///
@@ -395,19 +427,10 @@ pub unsafe extern "C" fn sl_visible_leaves(
     capacity: usize,
     out_count: *mut usize,
 ) -> SlStatus {
-    guard(|| {
-        // SAFETY: null or live/readable per the contract.
-        let (Some(w), Some(s), Some(cam)) =
-            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() })
-        else {
-            return null_argument();
-        };
-        match cull_into(w, s, cam, backend, false) {
-            // SAFETY: forwarded contract.
-            SL_OK => unsafe { write_list(&s.visible.leaves, out_leaves, capacity, out_count) },
-            err => err,
-        }
-    })
+    // SAFETY: forwarded contract.
+    unsafe {
+        visible_list(world, scratch, camera, backend, false, |v| &v.leaves, out_leaves, capacity, out_count)
+    }
 }
 
 /// Visible faces of a camera: the faces of the visible leaves, each once, nearest leaf first
@@ -429,19 +452,21 @@ pub unsafe extern "C" fn sl_visible_faces(
     capacity: usize,
     out_count: *mut usize,
 ) -> SlStatus {
-    guard(|| {
-        // SAFETY: null or live/readable per the contract.
-        let (Some(w), Some(s), Some(cam)) =
-            (unsafe { world.as_ref() }, unsafe { scratch.as_mut() }, unsafe { camera.as_ref() })
-        else {
-            return null_argument();
-        };
-        match cull_into(w, s, cam, backend, cull_back_faces != 0) {
-            // SAFETY: forwarded contract.
-            SL_OK => unsafe { write_list(&s.visible.faces, out_faces, capacity, out_count) },
-            err => err,
-        }
-    })
+    let back_faces = cull_back_faces != 0;
+    // SAFETY: forwarded contract.
+    unsafe {
+        visible_list(
+            world,
+            scratch,
+            camera,
+            backend,
+            back_faces,
+            |v| &v.faces,
+            out_faces,
+            capacity,
+            out_count,
+        )
+    }
 }
 
 /// The crate version (`"MAJOR.MINOR.PATCH"`), a static NUL-terminated string.
