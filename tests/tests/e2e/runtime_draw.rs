@@ -11,6 +11,8 @@ use sightline_runtime::check::sampled_leaves;
 use sightline_runtime::poses::{SplitMix64, point_in, random_open_point};
 use sightline_runtime::{Bitset, World, load};
 
+use super::runtime_real_maps::world_box;
+
 /// Quake `.bsp` files with visdata under the shared maps, read both ways.
 fn maps() -> Vec<(&'static str, bsp::Bsp, World)> {
     ["ericw/e1m1.vis.bsp", "ericw/dm2.vis.bsp", "ericw/e1m3.vis.bsp"]
@@ -122,17 +124,6 @@ fn brush_models_take_their_entity_origin() {
     if checked == 0 {
         eprintln!("shared maps absent: brush model origins not checked");
     }
-}
-
-/// A box a little larger than every open leaf.
-fn world_box(world: &World) -> (Vec3A, Vec3A) {
-    let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
-    for &l in world.open_leaves() {
-        let b = world.leaf_bounds(l).expect("leaf");
-        lo = lo.min(b.mins());
-        hi = hi.max(b.maxs());
-    }
-    (lo - 64.0, hi + 64.0)
 }
 
 #[test]

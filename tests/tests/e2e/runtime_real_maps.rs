@@ -24,7 +24,7 @@ fn worlds() -> Vec<(&'static str, World)> {
 }
 
 /// A box a little larger than every open leaf.
-fn world_box(world: &World) -> (Vec3A, Vec3A) {
+pub(crate) fn world_box(world: &World) -> (Vec3A, Vec3A) {
     let mut lo = Vec3A::splat(f32::INFINITY);
     let mut hi = Vec3A::splat(f32::NEG_INFINITY);
     for &l in world.open_leaves() {

@@ -12,14 +12,8 @@ use sightline_compiler::vis::{self, VisOptions};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_validate::mapgen::{MapGenParams, generate};
 
-/// User + system CPU seconds of this process (`/proc/self/stat`, ticks of 1/100 s).
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
-    let Some((_, rest)) = stat.rsplit_once(')') else { return f64::NAN };
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    (ticks(11) + ticks(12)) / 100.0
-}
+mod common;
+use common::cpu_seconds;
 
 /// Rooms per side and storeys of the generated maps, smallest first.
 const SIZES: [(u32, u32); 9] = [(2, 1), (2, 2), (4, 1), (4, 2), (6, 3), (8, 3), (12, 3), (16, 4), (20, 5)];

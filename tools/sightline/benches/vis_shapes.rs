@@ -17,14 +17,8 @@ use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_formats::prt::PortalFile;
 use sightline_validate::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
 
-/// User + system CPU seconds of this process (`/proc/self/stat`, ticks of 1/100 s).
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
-    let Some((_, rest)) = stat.rsplit_once(')') else { return f64::NAN };
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    (ticks(11) + ticks(12)) / 100.0
-}
+mod common;
+use common::cpu_seconds;
 
 /// A `/proc/self/status` field in KiB.
 fn status_kib(field: &str) -> Option<u64> {
