@@ -64,22 +64,28 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
 /// per finished portal.
 ///
 /// The flood from the cluster a portal leads to enters a portal when it is a [`candidate`]; each
-/// portal met is tested once, so the work grows with what a portal might see, not with the
-/// number of portals in the map.
+/// cluster is entered once and each portal met tested once, so the work grows with what a portal
+/// might see, not with the number of portals in the map. (Entering a cluster once per portal
+/// into it cost, per source, the portals into a cluster times the portals out of it: nothing on
+/// leaves with a few portals each, but quadratic on clusters merged by `coarsen`, whose base vis
+/// of 10,000 tiny brushes did not finish in 15 minutes.)
 pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u64> {
     let n = g.portals.len();
     let mut rows = vec![0u64; n * words];
     if words == 0 {
         return rows;
     }
+    let cluster_words = bits::words(g.num_clusters());
     rows.par_chunks_mut(words).enumerate().for_each_init(
-        || (vec![0u64; words], Vec::<u32>::new()),
-        |(tested, stack), (pi, row)| {
+        || (vec![0u64; words], vec![0u64; cluster_words], Vec::<u32>::new()),
+        |(tested, entered, stack), (pi, row)| {
             tested.fill(0);
+            entered.fill(0);
             bits::set(tested, pi);
             let p = &g.portals[pi];
             stack.clear();
             stack.push(p.leaf);
+            bits::set(entered, p.leaf as usize);
             while let Some(c) = stack.pop() {
                 for &ti in &g.cluster_portals[c as usize] {
                     let ti = ti as usize;
@@ -89,7 +95,11 @@ pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u6
                     bits::set(tested, ti);
                     if candidate(g, p, &g.portals[ti]) {
                         bits::set(row, ti);
-                        stack.push(g.portals[ti].leaf);
+                        let next = g.portals[ti].leaf;
+                        if !bits::get(entered, next as usize) {
+                            bits::set(entered, next as usize);
+                            stack.push(next);
+                        }
                     }
                 }
             }

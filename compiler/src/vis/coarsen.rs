@@ -1,5 +1,6 @@
-//! Coarsening: merge clusters into fewer, larger ones until a vis that would not fit memory
-//! does ([`VisOptions::coarsen`]). The result is a portal file over the same leaves whose
+//! Coarsening: merge clusters into fewer, larger ones until a vis that would not fit memory, or
+//! would take more than its work limit, does ([`VisOptions::coarsen`]; [`super::memory_estimate`]
+//! and [`super::work_estimate`]). The result is a portal file over the same leaves whose
 //! clusters are unions of the input's, with only the portals whose two sides land in different
 //! new clusters; vis runs on it as on any PRT2 file, and a leaf's row is its new cluster's row.
 //! `expand` then gives each input cluster its merged cluster's row (over input clusters), so
@@ -20,7 +21,7 @@
 //! of all centres, two clusters merge when a portal joins them and both centres fall in the same
 //! cell; the groups are the connected components of those portals. Groups are therefore
 //! spatially compact and connected through portals. `cell` starts at the median cluster extent and
-//! doubles until the [`super::memory_estimate`] of the result fits the limit, or until one cell
+//! doubles until the memory and work estimates of the result fit their limits, or until one cell
 //! holds every centre (then the groups are the connected components of the whole portal graph,
 //! the coarsest this scheme makes); if that does not fit either, there is no coarsening.
 //!
@@ -35,6 +36,15 @@ use sightline_formats::bits;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 
 use super::{Counts, VisOptions, VisResult};
+
+/// The limits a merge must fit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Limits {
+    /// Bytes ([`super::memory_estimate`] plus the expanded rows).
+    pub memory: u64,
+    /// Portal tests ([`super::work_estimate`]).
+    pub work: u64,
+}
 
 /// How many times the cell may double (from the median cluster extent, this spans any
 /// coordinates a portal file holds).
@@ -56,6 +66,8 @@ pub struct CoarsenStats {
     /// [`super::memory_estimate`] of the run on the merged clusters plus the rows over the
     /// input's clusters `expand` builds, in bytes.
     pub estimate: u64,
+    /// [`super::work_estimate`] of the run on the merged clusters, in portal tests.
+    pub work: u64,
 }
 
 /// A coarsened input: the portal file vis runs on, and the merged cluster of each input cluster.
@@ -68,9 +80,9 @@ pub(crate) struct Coarse {
     pub stats: CoarsenStats,
 }
 
-/// Merge `prt`'s clusters until the vis estimate fits `limit` bytes (see the module docs).
-/// `None` when even the coarsest grouping does not fit.
-pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limit: u64) -> Option<Coarse> {
+/// Merge `prt`'s clusters until the vis estimates fit `limits` (see the module docs). `None` when
+/// even the coarsest grouping does not fit.
+pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option<Coarse> {
     let nc = prt.num_clusters as usize;
     // The expanded rows, one per input cluster.
     let expanded = 8 * (nc as u64).saturating_mul(bits::words(nc) as u64);
@@ -109,7 +121,8 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limit: u64) -> Option<Coa
             points: kept.map(|p| p.winding.points.len() as u128).sum(),
         };
         let estimate = super::estimate(counts, opts).saturating_add(expanded);
-        if estimate <= limit {
+        let work = super::work(counts, opts);
+        if estimate <= limits.memory && work <= limits.work {
             let coarse = build(prt, &new_id, groups);
             let stats = CoarsenStats {
                 clusters_before: prt.num_clusters,
@@ -118,6 +131,7 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limit: u64) -> Option<Coa
                 portals_after: coarse.portals.len(),
                 cell,
                 estimate,
+                work,
             };
             return Some(Coarse { prt: coarse, new_id, stats });
         }

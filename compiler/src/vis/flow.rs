@@ -92,6 +92,8 @@ pub struct Flow {
     vis: Vec<u64>,
     /// Clusters known visible from the base portal.
     seen: Vec<u64>,
+    /// Scratch: the words of a frame's `might` that hold a portal not in `vis`.
+    open: Vec<usize>,
     words: usize,
     level: u8,
     /// Recursive calls made (portal chains visited).
@@ -109,6 +111,7 @@ impl Flow {
             tmp: Poly::default(),
             vis: vec![0; words],
             seen: vec![0; bits::words(clusters)],
+            open: Vec::with_capacity(words),
             words,
             level,
             chains: 0,
@@ -122,7 +125,7 @@ impl Flow {
         let frame = std::mem::size_of::<Frame>() + 8 * words + 2 * CAP * std::mem::size_of::<Plane>();
         (MAX_FLOW_DEPTH as u128 + 1) * frame as u128
             + std::mem::size_of::<Self>() as u128
-            + 8 * (words + bits::words(clusters)) as u128
+            + 8 * (2 * words + bits::words(clusters)) as u128
     }
 
     /// Cluster `c` is visible: every portal into it is covered.
@@ -183,15 +186,20 @@ impl Flow {
         // Without a target worth testing (one still possibly visible that leads to an unseen
         // cluster or beyond which something unseen might lie) the branch ends here, before the
         // frame's separators are built. The loop below applies the same tests.
-        let here = &self.frames[d];
-        let (lo, hi) = (here.lo, here.hi);
+        // Only the words of `might` holding an uncovered portal can make a target worth it:
+        // listed once, so a cluster with many portals (merged by `coarsen`) costs its portals
+        // times those words, not times the whole row.
+        let Self { frames, open, seen, vis, .. } = self;
+        let here = &frames[d];
+        open.clear();
+        open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0));
         let worth = g.cluster_portals[leaf].iter().any(|&pi| {
             let pi = pi as usize;
             if !here.may_see(pi) {
                 return false;
             }
-            !bits::get(&self.seen, g.portals[pi].leaf as usize)
-                || (lo..hi).any(|w| here.might[w] & test[pi * words + w] & !self.vis[w] != 0)
+            !bits::get(seen, g.portals[pi].leaf as usize)
+                || open.iter().any(|&w| here.might[w] & test[pi * words + w] & !vis[w] != 0)
         });
         if !worth {
             return;

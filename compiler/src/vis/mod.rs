@@ -110,7 +110,11 @@ pub struct VisOptions {
     /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
     /// limit too.
     pub max_memory: Option<u64>,
-    /// Over that limit, merge clusters until the estimate fits ([`coarsen`]) instead of refusing.
+    /// Refuse (with [`VisError::Work`]) a run whose [`work_estimate`] is above this many portal
+    /// tests. With [`VisOptions::coarsen`] and no limit given, [`COARSEN_MAX_WORK`] applies.
+    pub max_work: Option<u64>,
+    /// Over either limit, merge clusters until both estimates fit ([`coarsen`]) instead of
+    /// refusing.
     pub coarsen: bool,
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
@@ -129,6 +133,7 @@ impl Default for VisOptions {
             stop_after: None,
             cancel: None,
             max_memory: None,
+            max_work: None,
             coarsen: false,
             #[cfg(test)]
             panic_at: None,
@@ -196,6 +201,22 @@ pub enum VisError {
         /// What to do about it (rerun with `--coarsen`, or that coarsening did not help).
         hint: String,
     },
+    /// The run's [`work_estimate`] is over [`VisOptions::max_work`]; nothing was computed.
+    #[error(
+        "vis would take an estimated {need} portal tests ({reason}): more than the {limit} {source_of_limit}; {hint}"
+    )]
+    Work {
+        /// Estimated portal tests ([`work_estimate`]).
+        need: u64,
+        /// The limit.
+        limit: u64,
+        /// The counts the estimate comes from.
+        reason: String,
+        /// Where the limit comes from (`--max-work`, or coarsening's default).
+        source_of_limit: String,
+        /// What to do about it.
+        hint: String,
+    },
     /// A bug: vis panicked (in a flow worker or elsewhere); every worker was stopped.
     #[error("vis panicked (a bug; every worker was stopped): {0}")]
     Panicked(String),
@@ -234,6 +255,8 @@ pub struct VisStats {
     pub chains: u64,
     /// Flow portals taken from a state file.
     pub resumed_portals: usize,
+    /// [`work_estimate`] of the input (before any merging), in portal tests.
+    pub work_estimate: u64,
     /// Seconds in base vis.
     pub base_seconds: f64,
     /// Seconds in the flow.
@@ -325,23 +348,25 @@ pub fn run(
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads.
     let single = VisOptions { threads: 1, ..opts.clone() };
-    let coarse = match check_memory(prt, &single) {
-        Err(e) if opts.coarsen => match &e {
-            VisError::Memory { limit, .. } => {
-                let limit = *limit;
-                Some(coarsen::fit(prt, &single, limit).ok_or(e)?)
-            }
-            _ => return Err(e),
-        },
-        _ => None,
+    let coarse = match check_memory(prt, &single).and_then(|()| check_work(prt, opts)) {
+        Err(e @ (VisError::Memory { .. } | VisError::Work { .. })) if opts.coarsen => {
+            let limits = coarsen::Limits {
+                memory: crate::memory::limit(opts.max_memory).map_or(u64::MAX, |(limit, _)| limit),
+                work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
+            };
+            Some(coarsen::fit(prt, &single, limits).ok_or(e)?)
+        }
+        Err(e) => return Err(e),
+        Ok(()) => None,
     };
-    check_memory(coarse.as_ref().map_or(prt, |c| &c.prt), opts)?;
+    let input = coarse.as_ref().map_or(prt, |c| &c.prt);
+    check_memory(input, opts)?;
+    check_work(input, opts)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
         .map_err(|e| VisError::Threads(e.to_string()))?;
     let threads = pool.current_num_threads();
-    let input = coarse.as_ref().map_or(prt, |c| &c.prt);
     let run = || pool.install(|| run_in_pool(input, opts, progress));
     let mut result = std::panic::catch_unwind(AssertUnwindSafe(run)).map_err(panic_error)??;
     if let Some(c) = coarse {
@@ -349,6 +374,7 @@ pub fn run(
         result.stats.coarsened = Some(c.stats);
     }
     result.stats.threads = threads;
+    result.stats.work_estimate = work_estimate(prt, opts);
     Ok(result)
 }
 
@@ -379,16 +405,10 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 /// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`]
 /// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
-    let counts = Counts {
-        portals: prt.portals.len(),
-        clusters: prt.num_clusters,
-        leaves: prt.num_leaves,
-        points: prt.portals.iter().map(|p| p.winding.points.len() as u128).sum(),
-    };
-    estimate(counts, opts)
+    estimate(Counts::of(prt), opts)
 }
 
-/// The counts [`memory_estimate`] depends on.
+/// The counts [`memory_estimate`] and [`work_estimate`] depend on.
 #[derive(Debug, Clone, Copy)]
 struct Counts {
     /// Portal lines.
@@ -397,6 +417,17 @@ struct Counts {
     leaves: u32,
     /// Winding points over all portal lines.
     points: u128,
+}
+
+impl Counts {
+    fn of(prt: &PortalFile) -> Self {
+        Self {
+            portals: prt.portals.len(),
+            clusters: prt.num_clusters,
+            leaves: prt.num_leaves,
+            points: prt.portals.iter().map(|p| p.winding.points.len() as u128).sum(),
+        }
+    }
 }
 
 /// [`memory_estimate`] from the counts.
@@ -423,15 +454,87 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     }
     // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
     let clusters = 3 * nc * cluster_row + u128::from(counts.leaves) * 8 + nc * 24;
-    // Base vis's `tested` row and flood stack (a cluster per portal at most), the cluster rows'
-    // portal row; with the flow, its state and the row it fills.
-    let mut per_thread = 2 * row + 4 * one_way;
+    // Base vis's `tested` row, `entered` clusters and flood stack (each cluster once), the
+    // cluster rows' portal row; with the flow, its state and the row it fills.
+    let mut per_thread = 2 * row + cluster_row + 4 * nc;
     if !opts.fast {
         per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
     }
     let slots = FLOW_BATCH as u128 * row;
     let total = graph + matrices + clusters + threads * per_thread + slots;
     u64::try_from(total).unwrap_or(u64::MAX)
+}
+
+/// Work of one flow chain in portal tests, the unit of [`work_estimate`]: on the shared maps and
+/// the generated rooms a chain costs 2–5 µs and base vis 5–20 ns per portal test.
+const CHAIN_WORK: u128 = 300;
+
+/// Work, in portal tests, of one of the portals a chain scans in its cluster (and the row words
+/// each narrows): nothing on leaves of a few portals each, but a cluster merged by `coarsen`
+/// holds thousands, and then a chain costs 0.45 ms (10,000 tiny brushes merged into 14 clusters
+/// of 3,656 one-way portals on average, 2026-11-26).
+const PORTAL_SCAN_WORK: u128 = 8;
+
+/// The work limit [`VisOptions::coarsen`] merges clusters down to when no
+/// [`VisOptions::max_work`] is given, in portal tests: under an hour of one core. The largest
+/// shared map (e1m1, 3,062 portals, 1,167 clusters) is estimated at 2.5 × 10⁹, an eightieth of
+/// it; 10,000 tiny brushes in one room (260,304 portals, 43,651 clusters) at 9.3 × 10¹².
+pub const COARSEN_MAX_WORK: u64 = 200_000_000_000;
+
+/// An estimate of the work a vis of `prt` does, in portal tests, from the counts alone: base vis
+/// tests every one-way portal against at most every other (`one_way²`); the flow, in a room where
+/// every cluster sees every other, follows at least one chain per (one-way portal, cluster), each
+/// worth [`CHAIN_WORK`] tests plus [`PORTAL_SCAN_WORK`] per portal of its cluster
+/// (`one_way / clusters` on average). On real maps the flow visits a tenth to a half of that many
+/// chains. With `--fast` only base vis counts. It grows with the square of the input, which is
+/// what makes a vis of a huge open area not finish; [`VisOptions::max_work`] bounds it.
+pub fn work_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
+    work(Counts::of(prt), opts)
+}
+
+/// [`work_estimate`] from the counts.
+fn work(counts: Counts, opts: &VisOptions) -> u64 {
+    let one_way = 2 * counts.portals as u128;
+    let base = one_way * one_way;
+    let flow = if opts.fast {
+        0
+    } else {
+        one_way * u128::from(counts.clusters) * CHAIN_WORK + one_way * one_way * PORTAL_SCAN_WORK
+    };
+    u64::try_from(base + flow).unwrap_or(u64::MAX)
+}
+
+/// The work limit of `opts` and where it comes from.
+fn work_limit(opts: &VisOptions) -> Option<(u64, &'static str)> {
+    match (opts.max_work, opts.coarsen) {
+        (Some(limit), _) => Some((limit, "allowed by --max-work")),
+        (None, true) => Some((COARSEN_MAX_WORK, "coarsening merges down to (see --max-work)")),
+        (None, false) => None,
+    }
+}
+
+/// Refuse a run whose [`work_estimate`] exceeds the limit.
+fn check_work(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
+    let need = work_estimate(prt, opts);
+    match work_limit(opts) {
+        Some((limit, source_of_limit)) if need > limit => Err(VisError::Work {
+            need,
+            limit,
+            reason: format!(
+                "{} portals, {} clusters: it grows with their square",
+                prt.portals.len(),
+                prt.num_clusters
+            ),
+            source_of_limit: source_of_limit.to_string(),
+            hint: if opts.coarsen {
+                "merging clusters (--coarsen) does not bring it under either"
+            } else {
+                "rerun with --coarsen to merge clusters until it is under (a looser PVS)"
+            }
+            .to_string(),
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Refuse a run whose [`memory_estimate`] exceeds the limit.

@@ -495,3 +495,29 @@ fn coarsening_that_cannot_fit_still_refuses() {
     assert!(matches!(&err, VisError::Memory { limit: 64, .. }), "{err}");
     assert!(err.to_string().contains("does not make it fit either"), "{err}");
 }
+
+#[test]
+fn a_work_limit_refuses_up_front_or_coarsens_until_the_estimate_is_under() {
+    let prt = grid(30, 24, 7);
+    let opts = VisOptions { threads: 1, ..VisOptions::default() };
+    let fine = run(&prt, &opts, &none()).expect("vis");
+    let need = work_estimate(&prt, &opts);
+    assert_eq!(fine.stats.work_estimate, need);
+    // Base vis alone counts only its portal pairs.
+    assert!(work_estimate(&prt, &VisOptions { fast: true, ..opts.clone() }) < need / 10);
+    let limit = need / 4;
+    let limited = VisOptions { max_work: Some(limit), ..opts.clone() };
+    let err = run(&prt, &limited, &none()).expect_err("refused");
+    assert!(matches!(&err, VisError::Work { need: n, limit: l, .. } if *n == need && *l == limit), "{err}");
+    assert!(err.to_string().contains("rerun with --coarsen"), "{err}");
+    let coarse = run(&prt, &VisOptions { coarsen: true, ..limited.clone() }, &none()).expect("coarsened");
+    let c = coarse.stats.coarsened.clone().expect("coarsened");
+    assert!(c.work <= limit && c.clusters_after < c.clusters_before, "{c:?}");
+    assert_eq!(coarse.stats.work_estimate, need, "the input's estimate is reported");
+    assert!(missed_pairs(&fine, &coarse) * 1000 <= fine.stats.visible_pairs as usize);
+    assert!(coarse.stats.visible_pairs > fine.stats.visible_pairs);
+    // Exactly at the limit nothing is merged; coarsening's own default is far above this input.
+    let at = run(&prt, &VisOptions { max_work: Some(need), coarsen: true, ..opts.clone() }, &none());
+    assert_eq!(at.expect("fits").rows, fine.rows);
+    assert!(need < COARSEN_MAX_WORK);
+}

@@ -1192,7 +1192,7 @@ fn vis_coarsen_merges_clusters_until_it_fits() {
     let o = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K", "--coarsen", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("warning: vis did not fit memory: merged 410 clusters into "),
+        stderr(&o).contains("warning: vis did not fit its memory or work limit: merged 410 clusters into "),
         "{}",
         stderr(&o)
     );
@@ -1205,4 +1205,41 @@ fn vis_coarsen_merges_clusters_until_it_fits() {
     assert!(c["estimate"].as_u64().expect("estimate") <= 2000 * 1024, "{report}");
     assert_eq!(report["vis"]["leaves"], 415);
     assert!(dir.join("dm1.vis").exists());
+}
+
+/// Over `--max-work`, vis refuses up front naming the estimate and `--coarsen` (exit 2, nothing
+/// written); with it, clusters merge until the estimate is under the limit, and `--json` reports
+/// the input's estimate and the merged one.
+#[test]
+fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
+    let Some(src) = shared_map("ericw/dm1.prt") else { return };
+    let dir = temp_dir("max_work");
+    let prt = dir.join("dm1.prt");
+    std::fs::copy(&src, &prt).expect("copy");
+    let full = run(&["vis", s(&prt), "--threads", "1", "--json"]);
+    assert_eq!(code(&full), 0, "{}", stderr(&full));
+    let report: serde_json::Value = serde_json::from_slice(&full.stdout).expect("json");
+    let need = report["vis"]["work_estimate"].as_u64().expect("work_estimate");
+    assert!(need > 0, "{report}");
+    std::fs::remove_file(dir.join("dm1.vis")).expect("remove");
+    let limit = (need / 3).to_string();
+    let refused = run(&["vis", s(&prt), "--threads", "1", "--max-work", &limit]);
+    assert_eq!(code(&refused), 2, "{}", stderr(&refused));
+    let err = stderr(&refused);
+    assert!(
+        err.contains(&format!("estimated {need} portal tests")) && err.contains("rerun with --coarsen"),
+        "{err}"
+    );
+    assert!(!dir.join("dm1.vis").exists());
+    let o = run(&["vis", s(&prt), "--threads", "1", "--max-work", &limit, "--coarsen", "--json"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    let c = &report["vis"]["coarsened"];
+    assert!(c["work"].as_u64().expect("work") <= need / 3, "{report}");
+    assert_eq!(report["vis"]["work_estimate"].as_u64(), Some(need), "{report}");
+    assert!(c["clusters_after"].as_u64().expect("clusters_after") < 410, "{report}");
+    for bad in ["-1", "lots", "nan"] {
+        let o = run(&["vis", s(&prt), "--max-work", bad]);
+        assert_eq!(code(&o), 2, "{bad}: {}", stderr(&o));
+    }
 }

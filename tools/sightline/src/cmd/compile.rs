@@ -166,7 +166,7 @@ fn report(args: &Args, c: &Compiled, out: &Path, prt: Option<&Path>, pts: &Path)
         }
         if let Some(k) = &v.coarsened {
             println!(
-                "  vis: merged {} clusters into {} to fit memory (--coarsen): the PVS is looser",
+                "  vis: merged {} clusters into {} to fit its memory or work limit (--coarsen): the PVS is looser",
                 k.clusters_before, k.clusters_after
             );
         }

@@ -311,10 +311,28 @@ pub struct VisFlags {
     /// 8G); the memory the machine has available is always a limit too.
     #[arg(long, value_name = "SIZE", value_parser = sightline_compiler::memory::parse_size)]
     pub max_memory: Option<u64>,
-    /// Over the memory limit, merge clusters into coarser ones until the vis fits instead of
-    /// refusing: a looser PVS (never hiding a visible leaf), reported with a warning.
+    /// Refuse a vis whose estimated work is above this many portal tests (a number: 2e11,
+    /// 500000000000). The estimate (`work_estimate` in `--json`) grows with the square of the
+    /// portals; about 10^8 tests take a second of one core.
+    #[arg(long, value_name = "TESTS", value_parser = parse_count)]
+    pub max_work: Option<u64>,
+    /// Over the memory or work limit, merge clusters into coarser ones until the vis fits instead
+    /// of refusing: a looser PVS (never hiding a visible leaf), reported with a warning. Without
+    /// `--max-work` it merges down to 2e11 portal tests (under an hour of one core).
     #[arg(long)]
     pub coarsen: bool,
+}
+
+/// A count for `--max-work`: a whole number, or a decimal one with an exponent (`2e11`).
+fn parse_count(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    if let Ok(n) = t.parse::<u64>() {
+        return Ok(n);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..u64::MAX as f64).contains(&v) => Ok(v as u64),
+        _ => Err(format!("`{s}` is not a count of portal tests (a number: 2e11, 500000000000)")),
+    }
 }
 
 impl Default for VisFlags {
@@ -327,6 +345,7 @@ impl Default for VisFlags {
             checkpoint_secs: 180,
             stop_after: None,
             max_memory: None,
+            max_work: None,
             coarsen: false,
         }
     }
@@ -343,6 +362,7 @@ impl VisFlags {
             stop_after: self.stop_after,
             cancel: Some(ctrl_c_flag()),
             max_memory: self.max_memory,
+            max_work: self.max_work,
             coarsen: self.coarsen,
             ..VisOptions::default()
         }
@@ -702,12 +722,13 @@ pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyho
         Ok(r) => {
             if let Some(c) = &r.stats.coarsened {
                 eprintln!(
-                    "warning: vis did not fit memory: merged {} clusters into {} ({} of {} portals left, estimate {}); the PVS is looser",
+                    "warning: vis did not fit its memory or work limit: merged {} clusters into {} ({} of {} portals left, estimates {} and {:.1e} portal tests); the PVS is looser",
                     c.clusters_before,
                     c.clusters_after,
                     c.portals_after,
                     c.portals_before,
-                    sightline_compiler::memory::format_size(c.estimate)
+                    sightline_compiler::memory::format_size(c.estimate),
+                    c.work as f64
                 );
             }
             Ok(r)
