@@ -348,6 +348,7 @@ impl VisProgressBridge<'_> {
                     self.progress.end();
                 }
                 let name = match p.phase {
+                    vis::VisPhase::Coarsen => "vis clusters merged (--coarsen)",
                     vis::VisPhase::Base => "vis base",
                     vis::VisPhase::Flow => "vis flow",
                 };

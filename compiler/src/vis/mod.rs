@@ -144,13 +144,17 @@ impl Default for VisOptions {
 /// Which phase a progress report is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum VisPhase {
+    /// Clusters were merged ([`VisOptions::coarsen`]): reported once, before base vis, with
+    /// `done` the merged clusters and `total` the input's.
+    Coarsen,
     /// Base vis (`mightsee`).
     Base,
     /// Full flow.
     Flow,
 }
 
-/// A progress report: `done` of `total` portals finished in `phase`.
+/// A progress report: `done` of `total` portals finished in `phase` (clusters for
+/// [`VisPhase::Coarsen`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct VisProgress {
     /// The phase.
@@ -354,7 +358,10 @@ pub fn run(
                 memory: crate::memory::limit(opts.max_memory).map_or(u64::MAX, |(limit, _)| limit),
                 work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
             };
-            Some(coarsen::fit(prt, &single, limits).ok_or(e)?)
+            let coarse = coarsen::fit(prt, &single, limits).ok_or(e)?;
+            let (done, total) = (coarse.stats.clusters_after as usize, coarse.stats.clusters_before as usize);
+            progress(VisProgress { phase: VisPhase::Coarsen, done, total });
+            Some(coarse)
         }
         Err(e) => return Err(e),
         Ok(()) => None,

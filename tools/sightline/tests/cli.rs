@@ -1233,6 +1233,9 @@ fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
     assert!(!dir.join("dm1.vis").exists());
     let o = run(&["vis", s(&prt), "--threads", "1", "--max-work", &limit, "--coarsen", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
+    // Said before the work starts, not only in the closing warning.
+    let note = "note: vis does not fit its memory or work limit: merging 410 clusters into ";
+    assert!(stderr(&o).contains(note), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
     let c = &report["vis"]["coarsened"];
     assert!(c["work"].as_u64().expect("work") <= need / 3, "{report}");

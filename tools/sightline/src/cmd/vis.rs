@@ -708,6 +708,14 @@ pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyho
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
     let report = |p: VisProgress| {
+        if p.phase == VisPhase::Coarsen {
+            // Said at once: a merged run may still take long, and its PVS is looser.
+            eprintln!(
+                "note: vis does not fit its memory or work limit: merging {} clusters into {} (--coarsen)",
+                p.total, p.done
+            );
+            return;
+        }
         if quiet || (!p.done.is_multiple_of(32) && p.done != p.total) {
             return;
         }
