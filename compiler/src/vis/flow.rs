@@ -70,6 +70,9 @@ struct Frame {
     source: Poly,
     pass: Poly,
     might: Vec<u64>,
+    /// The words of `might` that held a portal not yet covered (in the flow's `vis`) when the
+    /// frame was entered; `vis` only grows, so no other word can hold one later.
+    open: Vec<usize>,
     /// Words of `might` outside `lo..hi` are zero (and not stored).
     lo: usize,
     hi: usize,
@@ -92,8 +95,6 @@ pub struct Flow {
     vis: Vec<u64>,
     /// Clusters known visible from the base portal.
     seen: Vec<u64>,
-    /// Scratch: the words of a frame's `might` that hold a portal not in `vis`.
-    open: Vec<usize>,
     words: usize,
     level: u8,
     /// Recursive calls made (portal chains visited).
@@ -111,7 +112,6 @@ impl Flow {
             tmp: Poly::default(),
             vis: vec![0; words],
             seen: vec![0; bits::words(clusters)],
-            open: Vec::with_capacity(words),
             words,
             level,
             chains: 0,
@@ -122,10 +122,10 @@ impl Flow {
     /// An upper bound of the bytes a flow's state takes for rows of `words` words and
     /// `clusters` clusters: its frames at the deepest, and its rows.
     pub fn bytes(words: usize, clusters: usize) -> u128 {
-        let frame = std::mem::size_of::<Frame>() + 8 * words + 2 * CAP * std::mem::size_of::<Plane>();
+        let frame = std::mem::size_of::<Frame>() + 16 * words + 2 * CAP * std::mem::size_of::<Plane>();
         (MAX_FLOW_DEPTH as u128 + 1) * frame as u128
             + std::mem::size_of::<Self>() as u128
-            + 8 * (2 * words + bits::words(clusters)) as u128
+            + 8 * (words + bits::words(clusters)) as u128
     }
 
     /// Cluster `c` is visible: every portal into it is covered.
@@ -135,7 +135,11 @@ impl Flow {
 
     fn frame(&mut self, d: usize) {
         while self.frames.len() <= d {
-            self.frames.push(Frame { might: vec![0; self.words], ..Frame::default() });
+            self.frames.push(Frame {
+                might: vec![0; self.words],
+                open: Vec::with_capacity(self.words),
+                ..Frame::default()
+            });
         }
     }
 
@@ -189,10 +193,12 @@ impl Flow {
         // Only the words of `might` holding an uncovered portal can make a target worth it:
         // listed once, so a cluster with many portals (merged by `coarsen`) costs its portals
         // times those words, not times the whole row.
-        let Self { frames, open, seen, vis, .. } = self;
+        let Self { frames, seen, vis, .. } = self;
+        let here = &mut frames[d];
+        here.open.clear();
+        here.open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0));
         let here = &frames[d];
-        open.clear();
-        open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0));
+        let open = &here.open;
         let worth = g.cluster_portals[leaf].iter().any(|&pi| {
             let pi = pi as usize;
             if !here.may_see(pi) {
@@ -228,6 +234,13 @@ impl Flow {
             let (lo, hi) = self.frames.split_at_mut(d + 1);
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
+            // A target into a seen cluster with nothing new beyond it is skipped before its row
+            // is built (checked on the frame's open words only).
+            if bits::get(&self.seen, p.leaf as usize)
+                && !prev.open.iter().any(|&w| prev.might[w] & trow[w] & !self.vis[w] != 0)
+            {
+                continue;
+            }
             let mut more = 0u64;
             let (mut first, mut last) = (prev.hi, prev.lo);
             let range = prev.lo..prev.hi;
