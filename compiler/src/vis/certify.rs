@@ -29,26 +29,36 @@ pub fn centroid(pts: &[DVec3]) -> Option<DVec3> {
     Some(pts.iter().copied().sum::<DVec3>() / pts.len() as f64)
 }
 
-/// `x` lies at least [`CERTIFY_MARGIN`] inside every edge of the convex winding `pts`, which lies
-/// in a plane of unit normal `normal` (either turning direction).
-pub fn inside(pts: &[DVec3], normal: DVec3, x: DVec3) -> bool {
+/// The edge lines of the convex winding `pts`, lying in a plane of unit normal `normal` (either
+/// turning direction), appended to `out`, one per point: edge `i` runs from point `i` to point
+/// `i + 1` and is `[m.x, m.y, m.z, offset]`, where `m · x - offset` is how far `x` lies inside
+/// that edge (`m` the unit normal of the edge in the plane, pointing into the winding). A
+/// zero-length edge constrains nothing; a winding of no area (or under 3 points) contains nothing.
+pub fn edge_lines(pts: &[DVec3], normal: DVec3, out: &mut Vec<[f64; 4]>) {
     let n = pts.len();
-    if n < 3 {
-        return false;
-    }
-    let (mut pos, mut neg) = (true, true);
+    // Newell's area vector: its side of the plane gives the turning direction.
+    let area: DVec3 = (0..n).map(|i| pts[i].cross(pts[(i + 1) % n])).sum();
+    let turn = area.dot(normal);
     for i in 0..n {
         let a = pts[i];
-        let e = pts[if i + 1 == n { 0 } else { i + 1 }] - a;
-        let s = e.cross(x - a).dot(normal);
-        let m = CERTIFY_MARGIN * e.length();
-        pos &= s >= m;
-        neg &= s <= -m;
-        if !pos && !neg {
-            return false;
-        }
+        let e = pts[(i + 1) % n] - a;
+        let len = e.length();
+        out.push(if n < 3 || turn == 0.0 || !turn.is_finite() {
+            [0.0, 0.0, 0.0, f64::INFINITY]
+        } else if len == 0.0 {
+            [0.0, 0.0, 0.0, f64::NEG_INFINITY]
+        } else {
+            let m = normal.cross(e) * (turn.signum() / len);
+            [m.x, m.y, m.z, m.dot(a)]
+        });
     }
-    true
+}
+
+/// `x` lies at least [`CERTIFY_MARGIN`] inside every edge line of a winding ([`edge_lines`]).
+#[inline]
+pub fn inside(edges: &[[f64; 4]], x: DVec3) -> bool {
+    !edges.is_empty()
+        && edges.iter().all(|&[mx, my, mz, offset]| mx * x.x + my * x.y + mz * x.z - offset >= CERTIFY_MARGIN)
 }
 
 /// Where the line from `from` through `through` meets `plane`; `None` when it runs (nearly)
@@ -62,18 +72,19 @@ pub fn extend(from: DVec3, through: DVec3, plane: &Plane) -> Option<DVec3> {
     Some(from + d * (-plane.distance(from) / along))
 }
 
-/// The segment `a → b` crosses every (plane, winding) of `chain` in order: each from behind to in
-/// front, at increasing parameters strictly between `a` and `b`, inside each winding by the margin.
-pub fn crosses<'a>(a: DVec3, b: DVec3, chain: impl IntoIterator<Item = (&'a Plane, &'a [DVec3])>) -> bool {
+/// The segment `a → b` crosses every (plane, winding edge lines) of `chain` in order: each from
+/// behind to in front, at increasing parameters strictly between `a` and `b`, inside each winding
+/// by the margin.
+pub fn crosses<'a>(a: DVec3, b: DVec3, chain: impl IntoIterator<Item = (&'a Plane, &'a [[f64; 4]])>) -> bool {
     let d = b - a;
     let mut last = 0.0;
-    for (plane, pts) in chain {
+    for (plane, edges) in chain {
         let along = plane.normal.dot(d);
         if along <= 0.0 {
             return false;
         }
         let t = -plane.distance(a) / along;
-        let through = t > last && t < 1.0 && inside(pts, plane.normal, a + d * t);
+        let through = t > last && t < 1.0 && inside(edges, a + d * t);
         if !through {
             return false;
         }
@@ -95,10 +106,16 @@ mod tests {
         ]
     }
 
+    fn edges(pts: &[DVec3], normal: DVec3) -> Vec<[f64; 4]> {
+        let mut out = Vec::new();
+        edge_lines(pts, normal, &mut out);
+        out
+    }
+
     #[test]
     fn a_straight_line_through_aligned_openings_is_certified() {
         let plane = |x: f64| Plane { normal: DVec3::X, dist: x };
-        let (w1, w2) = (square(10.0, 0.0, 8.0), square(20.0, 0.0, 8.0));
+        let (w1, w2) = (edges(&square(10.0, 0.0, 8.0), DVec3::X), edges(&square(20.0, 0.0, 8.0), DVec3::X));
         let chain = [(plane(10.0), w1.as_slice()), (plane(20.0), w2.as_slice())];
         let (a, b) = (DVec3::new(0.0, 4.0, 4.0), DVec3::new(30.0, 4.0, 4.0));
         assert!(crosses(a, b, chain.iter().map(|(p, w)| (p, *w))));
@@ -107,7 +124,7 @@ mod tests {
         // Out of order: the second opening before the first.
         assert!(!crosses(a, b, chain.iter().rev().map(|(p, w)| (p, *w))));
         // Missing an opening, or grazing its edge within the margin.
-        let w3 = square(20.0, 9.0, 8.0);
+        let w3 = edges(&square(20.0, 9.0, 8.0), DVec3::X);
         let off = [(plane(10.0), w1.as_slice()), (plane(20.0), w3.as_slice())];
         assert!(!crosses(a, b, off.iter().map(|(p, w)| (p, *w))));
         let graze = (DVec3::new(0.0, 8.0 - 1e-4, 4.0), DVec3::new(30.0, 8.0 - 1e-4, 4.0));
@@ -131,11 +148,22 @@ mod tests {
     fn inside_accepts_either_turning_direction_and_refuses_degenerate_windings() {
         let mut w = square(0.0, 0.0, 8.0);
         let c = DVec3::new(0.0, 4.0, 4.0);
-        assert!(inside(&w, DVec3::X, c));
+        assert!(inside(&edges(&w, DVec3::X), c));
+        assert!(inside(&edges(&w, -DVec3::X), c), "the plane's normal either way");
         w.reverse();
-        assert!(inside(&w, DVec3::X, c));
-        assert!(!inside(&w, DVec3::X, DVec3::new(0.0, 9.0, 4.0)));
-        assert!(!inside(&w[..2], DVec3::X, c));
+        assert!(inside(&edges(&w, DVec3::X), c));
+        assert!(!inside(&edges(&w, DVec3::X), DVec3::new(0.0, 9.0, 4.0)));
+        // Within the margin of an edge is not inside; just beyond it is.
+        assert!(!inside(&edges(&w, DVec3::X), DVec3::new(0.0, 8.0 - CERTIFY_MARGIN / 2.0, 4.0)));
+        assert!(inside(&edges(&w, DVec3::X), DVec3::new(0.0, 8.0 - 2.0 * CERTIFY_MARGIN, 4.0)));
+        assert!(!inside(&edges(&w[..2], DVec3::X), c));
+        assert!(!inside(&[], c));
+        // A repeated point (a zero-length edge) changes nothing; a winding of no area holds nothing.
+        let mut doubled = w.clone();
+        doubled.insert(1, w[1]);
+        assert!(inside(&edges(&doubled, DVec3::X), c));
+        let flat = [DVec3::ZERO, DVec3::new(0.0, 4.0, 0.0), DVec3::new(0.0, 8.0, 0.0)];
+        assert!(!inside(&edges(&flat, DVec3::X), DVec3::new(0.0, 4.0, 0.0)));
         assert_eq!(centroid(&w), Some(c));
     }
 }

@@ -336,14 +336,14 @@ impl Flow {
         let certified = |a: DVec3, b: DVec3| {
             base.plane.distance(b) > certify::CERTIFY_MARGIN
                 && target.plane.distance(a) < -certify::CERTIFY_MARGIN
-                && certify::inside(g.winding(base), base.plane.normal, a)
-                && certify::inside(g.winding(target), target.plane.normal, b)
+                && certify::inside(g.edges(base), a)
+                && certify::inside(g.edges(target), b)
                 && certify::crosses(
                     a,
                     b,
                     chain[1..k].iter().map(|f| {
                         let p = &g.portals[f.portal as usize];
-                        (&p.plane, g.winding(p))
+                        (&p.plane, g.edges(p))
                     }),
                 )
         };

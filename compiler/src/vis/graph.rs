@@ -44,6 +44,9 @@ pub struct Graph {
     pub cluster_incoming: Vec<Vec<u32>>,
     /// Per portal, its bounding sphere as `[x, y, z, radius]`, packed for scans over many portals.
     pub spheres: Vec<[f64; 4]>,
+    /// Per winding point, the line of the edge from it to the next point in its portal's plane
+    /// ([`super::certify::edge_lines`]), aligned with [`Graph::points`].
+    pub edges: Vec<[f64; 4]>,
     /// Portal lines dropped (no plane, or joining a cluster to itself).
     pub dropped: usize,
     /// Every winding is planar and convex within [`WELL_FORMED_EPSILON`] (as compilers write
@@ -83,6 +86,7 @@ impl Graph {
             cluster_portals: vec![Vec::new(); num_clusters],
             cluster_incoming: vec![Vec::new(); num_clusters],
             spheres: Vec::with_capacity(prt.portals.len() * 2),
+            edges: Vec::new(),
             dropped: 0,
             convex: true,
         };
@@ -120,6 +124,7 @@ impl Graph {
             radius,
         });
         self.points.extend_from_slice(pts);
+        super::certify::edge_lines(pts, plane.normal, &mut self.edges);
         if let Some(list) = self.cluster_portals.get_mut(owner as usize) {
             list.push(index);
         }
@@ -137,5 +142,11 @@ impl Graph {
     #[inline]
     pub fn winding(&self, p: &OneWay) -> &[DVec3] {
         &self.points[p.start as usize..(p.start + p.len) as usize]
+    }
+
+    /// The edge lines of a portal's winding ([`Graph::edges`]).
+    #[inline]
+    pub fn edges(&self, p: &OneWay) -> &[[f64; 4]] {
+        &self.edges[p.start as usize..(p.start + p.len) as usize]
     }
 }

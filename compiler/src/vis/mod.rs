@@ -447,8 +447,9 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let row = 8 * bits::words(one_way as usize) as u128;
     let cluster_row = 8 * bits::words(nc as usize) as u128;
     let points = counts.points;
-    let graph =
-        one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8) + 2 * 24 * points + nc * 2 * 24;
+    let graph = one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8)
+        + 2 * (24 + 32) * points
+        + nc * 2 * 24;
     // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
     let mut matrices = 2 * one_way * row;
     if !opts.fast {
