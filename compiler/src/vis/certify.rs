@@ -95,6 +95,8 @@ pub fn crosses<'a>(a: DVec3, b: DVec3, chain: impl IntoIterator<Item = (&'a Plan
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
 
     fn square(x: f64, y0: f64, size: f64) -> Vec<DVec3> {
@@ -165,5 +167,67 @@ mod tests {
         let flat = [DVec3::ZERO, DVec3::new(0.0, 4.0, 0.0), DVec3::new(0.0, 8.0, 0.0)];
         assert!(!inside(&edges(&flat, DVec3::X), DVec3::new(0.0, 4.0, 0.0)));
         assert_eq!(centroid(&w), Some(c));
+    }
+
+    proptest! {
+        /// On a regular polygon in any plane, either turning direction and either normal, a point
+        /// is inside exactly when its distance to the nearest edge (computed apart, from the
+        /// polygon's inradius) is at least the margin. Half the points are anywhere near the
+        /// polygon, half within a few margins of an edge; points within 1e-9 of the margin may go
+        /// either way.
+        #[test]
+        fn inside_is_the_distance_to_the_nearest_edge(
+            sides in 3usize..12,
+            radius in 0.1f64..5000.0,
+            turn in 0.0f64..std::f64::consts::TAU,
+            (ax, ay, az) in (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0),
+            (px, py) in (-1.5f64..1.5, -1.5f64..1.5),
+            (edge, along, depth_near) in (0usize..12, -0.3f64..0.3, -4.0f64..4.0),
+            near: bool,
+            offset in -1.0e4f64..1.0e4,
+            reverse: bool,
+            flip: bool,
+        ) {
+            let axis = DVec3::new(ax, ay, az);
+            prop_assume!(axis.length() > 0.1);
+            let n = axis.normalize();
+            let u = n.any_orthonormal_vector();
+            let v = n.cross(u);
+            let origin = n * offset + u * 17.0 - v * 3.0;
+            let at = |x: f64, y: f64| origin + u * x + v * y;
+            let step = std::f64::consts::TAU / sides as f64;
+            let mut pts: Vec<DVec3> = (0..sides)
+                .map(|i| {
+                    let a = turn + step * i as f64;
+                    at(radius * a.cos(), radius * a.sin())
+                })
+                .collect();
+            if reverse {
+                pts.reverse();
+            }
+            // Edge `i` (between corners `i` and `i + 1`) has its outward normal at angle
+            // `turn + step * (i + 0.5)`, at the inradius from the centre.
+            let inradius = radius * (step / 2.0).cos();
+            let half_edge = radius * (step / 2.0).sin();
+            let (x, y) = if near {
+                let a = turn + step * ((edge % sides) as f64 + 0.5);
+                let r = inradius - depth_near * CERTIFY_MARGIN;
+                let t = along * half_edge;
+                (r * a.cos() - t * a.sin(), r * a.sin() + t * a.cos())
+            } else {
+                (px * radius, py * radius)
+            };
+            let depth = (0..sides)
+                .map(|i| {
+                    let a = turn + step * (i as f64 + 0.5);
+                    inradius - (x * a.cos() + y * a.sin())
+                })
+                .fold(f64::INFINITY, f64::min);
+            let tolerance = 1e-12 * (radius + offset.abs()) * 64.0;
+            prop_assume!((depth - CERTIFY_MARGIN).abs() > tolerance);
+            let normal = if flip { -n } else { n };
+            let edges = edges(&pts, normal);
+            prop_assert_eq!(inside(&edges, at(x, y)), depth >= CERTIFY_MARGIN, "depth {}", depth);
+        }
     }
 }
