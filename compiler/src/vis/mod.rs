@@ -492,7 +492,7 @@ pub const COARSEN_MAX_WORK: u64 = 200_000_000_000;
 /// An estimate of the work a vis of `prt` does, in portal tests, from the counts alone: base vis
 /// tests every one-way portal against at most every other (`one_way²`); the flow, in a room where
 /// every cluster sees every other, follows at least one chain per (one-way portal, cluster), each
-/// worth [`CHAIN_WORK`] tests plus [`PORTAL_SCAN_WORK`] per portal of its cluster
+/// worth 300 tests (`CHAIN_WORK`) plus 8 (`PORTAL_SCAN_WORK`) per portal of its cluster
 /// (`one_way / clusters` on average). On real maps the flow visits a tenth to a half of that many
 /// chains. With `--fast` only base vis counts. It grows with the square of the input, which is
 /// what makes a vis of a huge open area not finish; [`VisOptions::max_work`] bounds it.
