@@ -100,6 +100,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         Err(CompileError::Vis(VisError::Interrupted { done, total })) => {
             anyhow::bail!("vis {}", crate::cmd::vis::interrupted(done, total, args.vis.state.is_some()))
         }
+        // Vis's own message says what failed ("vis would need ..."): name the input before it.
+        Err(CompileError::Vis(e)) => {
+            return Err(anyhow::Error::new(e).context(args.input.display().to_string()));
+        }
         Err(e) => return Err(e.into()),
     };
     sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;

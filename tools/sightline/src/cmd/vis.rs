@@ -442,7 +442,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let read_seconds = t0.elapsed().as_secs_f64();
     remove_state(args)?;
     let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-    let mut result = compute(&input.prt, &opts, args.json || args.no_progress)?;
+    let mut result = compute(&input.prt, &opts, args.json || args.no_progress, &path)?;
     let mut farplane_hidden_pairs = 0;
     if let (Some(d), Some(b)) = (farplane, &input.bsp) {
         let boxes = visdata::cluster_boxes(&b.bsp, &input.prt);
@@ -599,7 +599,7 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
         }
         remove_state(args)?;
         let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-        let mut result = compute(&prt, &opts, args.json || args.no_progress)?;
+        let mut result = compute(&prt, &opts, args.json || args.no_progress, path)?;
         let mut farplane_hidden_pairs = None;
         if let Some(d) = farplane {
             let level = q2::to_level(&bytes, &file).with_context(|| format!("{}", path.display()))?;
@@ -701,8 +701,14 @@ fn ctrl_c_flag() -> Arc<AtomicBool> {
     .clone()
 }
 
-/// Run vis with a progress bar (hidden under `--json` or without a terminal).
-pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyhow::Result<VisResult> {
+/// Run vis with a progress bar (hidden under `--json` or without a terminal). Errors name `file`,
+/// the input the user gave.
+pub(crate) fn compute(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    quiet: bool,
+    file: &Path,
+) -> anyhow::Result<VisResult> {
     let base = crate::progress::bar("base", 0, quiet);
     let flow = crate::progress::bar("flow", 0, quiet);
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
@@ -744,7 +750,7 @@ pub(crate) fn compute(prt: &PortalFile, opts: &VisOptions, quiet: bool) -> anyho
         Err(vis::VisError::Interrupted { done, total }) => {
             bail!(interrupted(done, total, opts.state.is_some()))
         }
-        Err(e) => Err(e.into()),
+        Err(e) => Err(anyhow::Error::new(e).context(file.display().to_string())),
     }
 }
 

@@ -242,7 +242,7 @@ fn pack_one(
     let (input, _) = read_input(args, file)?;
     let Some(b) = &input.bsp else { bail!("{}: not a .bsp", file.display()) };
     let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-    let mut result = crate::cmd::vis::compute(&input.prt, &opts, true)?;
+    let mut result = crate::cmd::vis::compute(&input.prt, &opts, true, file)?;
     if let Some(d) = args.farplane.filter(|&d| d > 0.0) {
         vis::farplane::cull(&mut result, &visdata::cluster_boxes(&b.bsp, &input.prt), d)?;
     }

@@ -77,7 +77,7 @@ pub fn run(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
     }
     remove_state(args)?;
     let opts = VisOptions { threads: args.threads, ..args.vis.options() };
-    let result = compute(&portals, &opts, args.json || args.no_progress)?;
+    let result = compute(&portals, &opts, args.json || args.no_progress, path)?;
     let mut rows = Vec::with_capacity(clusters * sightline_formats::bits::bytes::len(clusters));
     let mut row = Vec::new();
     for c in 0..clusters {
