@@ -851,6 +851,9 @@ fn vis_refuses_a_job_larger_than_memory_before_allocating() {
     let compiled = run(&["compile", s(&maps().join("two_rooms.map")), "-o", s(&level), "--max-memory", "1K"]);
     assert_eq!(code(&compiled), 2, "{}", stderr(&compiled));
     assert!(stderr(&compiled).contains("allowed by --max-memory"));
+    // Refusals name the input first.
+    assert!(stderr(&tight).contains(&format!("{}: vis would need", prt.display())), "{}", stderr(&tight));
+    assert!(stderr(&compiled).contains("two_rooms.map: "), "{}", stderr(&compiled));
     let bad = run(&["vis", s(&prt), "--max-memory", "lots"]);
     assert_eq!(code(&bad), 2);
 }
@@ -1188,6 +1191,7 @@ fn vis_coarsen_merges_clusters_until_it_fits() {
     let refused = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K"]);
     assert_eq!(code(&refused), 2, "{}", stderr(&refused));
     assert!(stderr(&refused).contains("rerun with --coarsen"), "{}", stderr(&refused));
+    assert!(stderr(&refused).contains(&format!("{}: vis would need", prt.display())), "{}", stderr(&refused));
     assert!(!dir.join("dm1.vis").exists());
     let o = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K", "--coarsen", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
@@ -1230,6 +1234,7 @@ fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
         err.contains(&format!("estimated {need} portal tests")) && err.contains("rerun with --coarsen"),
         "{err}"
     );
+    assert!(err.contains(&format!("{}: vis would take", prt.display())), "names the input: {err}");
     assert!(!dir.join("dm1.vis").exists());
     let o = run(&["vis", s(&prt), "--threads", "1", "--max-work", &limit, "--coarsen", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
