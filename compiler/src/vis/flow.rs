@@ -189,23 +189,15 @@ impl Flow {
         let leaf = self.frames[d].leaf as usize;
         // Without a target worth testing (one still possibly visible that leads to an unseen
         // cluster or beyond which something unseen might lie) the branch ends here, before the
-        // frame's separators are built. The loop below applies the same tests.
-        // Only the words of `might` holding an uncovered portal can make a target worth it:
-        // listed once, so a cluster with many portals (merged by `coarsen`) costs its portals
-        // times those words, not times the whole row.
+        // frame's separators are built. The loop below skips the same targets.
         let Self { frames, seen, vis, .. } = self;
         let here = &mut frames[d];
         here.open.clear();
         here.open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0));
         let here = &frames[d];
-        let open = &here.open;
         let worth = g.cluster_portals[leaf].iter().any(|&pi| {
             let pi = pi as usize;
-            if !here.may_see(pi) {
-                return false;
-            }
-            !bits::get(seen, g.portals[pi].leaf as usize)
-                || open.iter().any(|&w| here.might[w] & test[pi * words + w] & !vis[w] != 0)
+            here.may_see(pi) && here.worth(g, pi, &test[pi * words..(pi + 1) * words], seen, vis)
         });
         if !worth {
             return;
@@ -234,11 +226,8 @@ impl Flow {
             let (lo, hi) = self.frames.split_at_mut(d + 1);
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
-            // A target into a seen cluster with nothing new beyond it is skipped before its row
-            // is built (checked on the frame's open words only).
-            if bits::get(&self.seen, p.leaf as usize)
-                && !prev.open.iter().any(|&w| prev.might[w] & trow[w] & !self.vis[w] != 0)
-            {
+            // Skipped before its row is built.
+            if !prev.worth(g, pi, trow, &self.seen, &self.vis) {
                 continue;
             }
             let mut more = 0u64;
@@ -258,11 +247,9 @@ impl Flow {
                 }
             }
             (next.lo, next.hi) = if first < last { (first, last) } else { (0, 0) };
-            // Nothing new beyond `p`: only whether `p` itself is visible is left to decide.
+            // Nothing new beyond `p`: only whether `p` itself (into an unseen cluster, see
+            // `Frame::worth`) is visible is left to decide.
             let deeper = more != 0;
-            if !deeper && bits::get(&self.seen, p.leaf as usize) {
-                continue;
-            }
             // Tests 3 and 4 already narrowed `prev.source` in `cull_beyond_beam`: a frame gets
             // here only with a target worth testing, so with something new in `might`.
             debug_assert!(!prev.narrow);
@@ -433,6 +420,16 @@ impl Frame {
     #[inline]
     fn may_see(&self, pi: usize) -> bool {
         (self.lo..self.hi).contains(&bits::word_of(pi)) && bits::get(&self.might, pi)
+    }
+
+    /// Target portal `pi` (whose `mightsee` or final row is `trow`) is worth testing: it leads
+    /// into a cluster not yet `seen`, or `might` and `trow` share a portal not yet covered in
+    /// `vis`. Only the frame's [`Frame::open`] words can hold such a portal, so a cluster with
+    /// many portals (merged by `coarsen`) costs its portals times those words, not times the row.
+    #[inline]
+    fn worth(&self, g: &Graph, pi: usize, trow: &[u64], seen: &[u64], vis: &[u64]) -> bool {
+        !bits::get(seen, g.portals[pi].leaf as usize)
+            || self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0)
     }
 
     /// Compute the separators of (`source`, `pass`) unless cached.
