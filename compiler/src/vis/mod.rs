@@ -24,8 +24,10 @@
 //!   clipped pass portal) against the chain's windings (`certify`); when it passes, the
 //!   clusters on it see each other for sure, and later flows from those clusters start with them
 //!   marked seen (saved in checkpoints with the rows). On E1M2 this cuts the chains by a
-//!   quarter. A batch's new pairs are bits of a cluster matrix (`seeds`), never a list per chain
-//!   (a corridor of 400 leaves once held 3 GB of such lists).
+//!   quarter. So do the clusters a finished flow saw, for later flows from its own cluster (whose
+//!   row holds them anyway): on E1M1 a further quarter. A batch's new pairs are bits of a cluster
+//!   matrix (`seeds`), never a list per chain (a corridor of 400 leaves once held 3 GB of such
+//!   lists).
 //! - **Bounded depth**: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep and then
 //!   counts everything it might still see as seen, so a thread's working set is that many rows
 //!   whatever the input.
@@ -90,9 +92,11 @@ pub struct VisOptions {
     pub fast: bool,
     /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
     pub level: u8,
-    /// Seed flows with clusters known visible by certified sight lines (`certify`; on by
-    /// default). Off, every flow finds everything itself: more work, and the PVS the seeds
-    /// would leave except for the few pairs they keep through the beam cull's order dependence.
+    /// Seed flows with clusters known visible by certified sight lines (`certify`) and with
+    /// those earlier flows from the same cluster saw (on by default). Off, every flow finds
+    /// everything itself: more work, and about the PVS the seeds would leave (the beam cull
+    /// depends on the order clusters are found in, and a seeded flow's row also holds portals
+    /// into clusters only its cluster's other portals see).
     pub seeds: bool,
     /// Worker threads; 0 uses every core.
     pub threads: usize,

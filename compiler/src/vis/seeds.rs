@@ -1,6 +1,8 @@
-//! Seeds: cluster pairs joined by a certified sight line ([`super::certify`]), as a cluster ×
-//! cluster bit matrix (`bits::words(clusters)` words per cluster; bit `to` of row `from` set when
-//! `from` sees `to`).
+//! Seeds: per cluster, the clusters a flow from one of its portals may count as seen from the
+//! start, as a cluster × cluster bit matrix (`bits::words(clusters)` words per cluster; bit `to`
+//! of row `from` set when `from` sees `to`): pairs joined by a certified sight line
+//! ([`super::certify`], both ways), and the clusters earlier flows from `from`'s portals counted
+//! seen (one way: `from`'s row holds them whether or not they are visible).
 //!
 //! Flows of a batch read only the pairs of earlier batches ([`Seeds::row`]), so what they find
 //! does not depend on timing; the pairs they certify go to a second matrix of atomic words
@@ -47,7 +49,7 @@ impl Seeds {
         &mut self.known
     }
 
-    /// Cluster `from` sees cluster `to` by a certified line; visible to flows after the next
+    /// Cluster `from` sees cluster `to` (or counts it seen); visible to flows after the next
     /// [`Seeds::fold`]. Safe from any number of threads.
     pub fn record(&self, from: u32, to: u32) {
         let (from, to) = (from as usize, to as usize);

@@ -33,8 +33,11 @@ use sightline_formats::bits;
 use super::VisError;
 use super::symmetry;
 
-/// Identifies the state format ("SLVISST3": the log of batch boundaries with a checksum).
-const MAGIC: u64 = 0x534c_5649_5353_5433;
+/// Identifies the state format and the flow's rules ("SLVISST4": the log of batch boundaries
+/// with a checksum, written by flows that also record the clusters they saw as seeds). A run
+/// under other rules would continue a state differently from its own uninterrupted run, so a
+/// change of what the flow records takes a new tag.
+const MAGIC: u64 = 0x534c_5649_5353_5434;
 
 /// Bytes of the checksum trailer.
 const TRAILER: usize = 8;

@@ -494,7 +494,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
-/// Tampered copies of a vis state (`SLVISST3`: bincode with fixed-width little-endian integers —
+/// Tampered copies of a vis state (`SLVISST4`: bincode with fixed-width little-endian integers —
 /// magic, input hash, portals, words, clusters, done, then length-prefixed rows (u64), chains
 /// (u64), added (u32) and pairs (2 × u32) — and an FNV-1a trailer): a flipped byte, and, with the
 /// checksum made right, a padding bit set in each finished row's last word and a seed pair out of
@@ -507,7 +507,7 @@ fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
         b[n..].copy_from_slice(&sum.to_le_bytes());
         b
     };
-    assert_eq!(&bytes[..8], &0x534c_5649_5353_5433u64.to_le_bytes(), "a SLVISST3 state");
+    assert_eq!(&bytes[..8], &0x534c_5649_5353_5434u64.to_le_bytes(), "a SLVISST4 state");
     let (portals, words, done) = (u64_at(bytes, 16), u64_at(bytes, 24) as usize, u64_at(bytes, 40) as usize);
     assert!(done > 0 && portals % 64 != 0, "{done} finished portals; {portals} leave padding bits");
     let mut out = Vec::new();
