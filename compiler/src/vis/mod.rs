@@ -66,7 +66,7 @@ use std::any::Any;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, PoisonError, RwLock};
+use std::sync::{Arc, Condvar, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -720,6 +720,59 @@ struct Cursor {
     halt: AtomicBool,
     /// Flow portals finished, for progress.
     counter: AtomicUsize,
+    /// Where a worker that waited past [`SPIN_WAITS`] sleeps until the batch opens or the run halts.
+    gate: Mutex<()>,
+    wake: Condvar,
+}
+
+/// Checks a worker makes for the next batch before it sleeps: batches of small maps close within
+/// microseconds, sooner than a sleeping thread wakes, while on larger maps a worker that spins
+/// through a long batch burns a core for nothing (on a 4×4×2 generated map a second thread spun
+/// away a fifth of the run's CPU time).
+const SPIN_WAITS: u32 = 256;
+
+impl Cursor {
+    /// Waits until position `i` may start; `false` when the run halts first.
+    fn wait_for(&self, i: usize) -> bool {
+        let mut spins = 0u32;
+        while i >= self.ready.load(Ordering::Acquire) {
+            if self.halt.load(Ordering::Acquire) {
+                return false;
+            }
+            spins = spins.saturating_add(1);
+            if spins < 64 {
+                std::hint::spin_loop();
+            } else if spins < SPIN_WAITS {
+                std::thread::yield_now();
+            } else {
+                let guard = self.gate.lock().unwrap_or_else(PoisonError::into_inner);
+                if i >= self.ready.load(Ordering::Acquire) && !self.halt.load(Ordering::Acquire) {
+                    // The timeout only bounds a wake-up that went astray; `open` and `stop`
+                    // notify under the gate, after their store.
+                    let _ = self.wake.wait_timeout(guard, Duration::from_millis(10));
+                }
+            }
+        }
+        !self.halt.load(Ordering::Acquire)
+    }
+
+    /// Lets positions before `end` start, waking sleeping workers.
+    fn open(&self, end: usize) {
+        self.ready.store(end, Ordering::Release);
+        self.notify();
+    }
+
+    /// Halts the run, waking sleeping workers so they return.
+    fn stop(&self) {
+        self.halt.store(true, Ordering::Release);
+        self.notify();
+    }
+
+    fn notify(&self) {
+        // Taking the gate orders the store before any waiter's check under it.
+        drop(self.gate.lock().unwrap_or_else(PoisonError::into_inner));
+        self.wake.notify_all();
+    }
 }
 
 /// A finished flow waiting for its batch to close.
@@ -741,11 +794,10 @@ struct Boundary<'s> {
 impl Run<'_> {
     /// Positions `done..n` of `order` in batches of [`FLOW_BATCH`] (counted from `done`): a
     /// portal starts once every earlier batch is folded into `test`, and reads `test` only then.
-    /// Workers are plain threads that take portals from a shared cursor and wait for the next
-    /// batch by spinning: small maps have many short batches, and waking sleeping threads per
-    /// batch cost more than the batches. A worker that panics records the error and halts the
-    /// cursor, so the others stop waiting for a batch that cannot close. Returns the final rows,
-    /// or why the run stopped.
+    /// A worker runs on each thread of the pool, takes portals from a shared cursor and waits
+    /// for the next batch by spinning briefly, then sleeping ([`Cursor::wait_for`]). A worker
+    /// that panics records the error and halts the cursor, so the others stop waiting for a
+    /// batch that cannot close. Returns the final rows, or why the run stopped.
     fn batches(
         &self,
         rows: Rows,
@@ -753,7 +805,6 @@ impl Run<'_> {
         log: Option<state::State>,
         stats: &mut VisStats,
     ) -> Result<Vec<u64>, VisError> {
-        let threads = rayon::current_num_threads().max(1);
         let test = RwLock::new(rows);
         let slots: Vec<Mutex<Slot>> = (0..FLOW_BATCH).map(|_| Mutex::new(Slot::default())).collect();
         let cursor = Cursor {
@@ -762,20 +813,19 @@ impl Run<'_> {
             ready: AtomicUsize::new((done + FLOW_BATCH).min(self.n)),
             halt: AtomicBool::new(false),
             counter: AtomicUsize::new(done),
+            gate: Mutex::new(()),
+            wake: Condvar::new(),
         };
         let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None });
-        std::thread::scope(|scope| {
-            for _ in 0..threads {
-                scope.spawn(|| {
-                    let work = || self.worker(done, &test, &slots, &cursor, &boundary);
-                    if let Err(payload) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
-                        let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
-                        if !matches!(b.outcome, Some(VisError::Panicked(_))) {
-                            b.outcome = Some(panic_error(payload));
-                        }
-                        cursor.halt.store(true, Ordering::Release);
-                    }
-                });
+        // One worker on every thread of the pool the run is installed in (no thread of its own).
+        rayon::broadcast(|_| {
+            let work = || self.worker(done, &test, &slots, &cursor, &boundary);
+            if let Err(payload) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
+                let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
+                if !matches!(b.outcome, Some(VisError::Panicked(_))) {
+                    b.outcome = Some(panic_error(payload));
+                }
+                cursor.stop();
             }
         });
         let boundary = boundary.into_inner().unwrap_or_else(PoisonError::into_inner);
@@ -799,19 +849,7 @@ impl Run<'_> {
             if i >= self.n {
                 return;
             }
-            let mut spins = 0u32;
-            while i >= cursor.ready.load(Ordering::Acquire) {
-                if cursor.halt.load(Ordering::Acquire) {
-                    return;
-                }
-                spins = spins.saturating_add(1);
-                match spins {
-                    0..64 => std::hint::spin_loop(),
-                    64..4096 => std::thread::yield_now(),
-                    _ => std::thread::sleep(Duration::from_micros(20)),
-                }
-            }
-            if cursor.halt.load(Ordering::Acquire) {
+            if !cursor.wait_for(i) {
                 return;
             }
             let mut out = vec![0u64; self.words];
@@ -878,17 +916,17 @@ impl Run<'_> {
             b.last_save = Instant::now();
             if let Err(e) = saved {
                 b.outcome = Some(e);
-                cursor.halt.store(true, Ordering::Release);
+                cursor.stop();
                 return;
             }
         }
         if stop {
             b.outcome = Some(VisError::Interrupted { done, total: n });
-            cursor.halt.store(true, Ordering::Release);
+            cursor.stop();
             return;
         }
         cursor.finished.store(0, Ordering::Release);
-        cursor.ready.store((done + FLOW_BATCH).min(n), Ordering::Release);
+        cursor.open((done + FLOW_BATCH).min(n));
     }
 }
 
