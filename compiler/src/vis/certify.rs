@@ -6,7 +6,10 @@
 //! *original* windings of the chain. If it
 //! crosses each of them, in order, from behind to in front, and at least [`CERTIFY_MARGIN`] inside
 //! every edge, that line is a sight line of the portal model: the clusters it runs through truly
-//! see each other, and every conservative flow keeps those pairs, in either direction. Later flows
+//! see each other, and every conservative flow keeps those pairs, in either direction. The line
+//! is then followed on through the portals it meets, past the target and back behind the source
+//! ([`walk`]): the clusters there are on the same sight line (in a ring of leaves round a pillar,
+//! this halves the flow's chains). Later flows
 //! use such pairs as seeds (see [`super::flow::Flow::run`]): a cluster known visible is marked
 //! seen from the start, so branches that could only find it are not explored. Seeds change the
 //! work, not what is visible. The PVS can still differ slightly, since the flow's beam cull tests
@@ -16,6 +19,8 @@
 
 use glam::DVec3;
 use sightline_formats::geom::Plane;
+
+use super::graph::Graph;
 
 /// How far inside every edge of every winding (units) a certified line must cross. Far above the
 /// flow's [`super::poly::TOUCH_EPSILON`], so the line has a bundle of sight lines around it.
@@ -91,6 +96,35 @@ pub fn crosses<'a>(a: DVec3, b: DVec3, chain: impl IntoIterator<Item = (&'a Plan
         last = t;
     }
     true
+}
+
+/// Follows the line from `a` through `b` beyond `b`, where it enters cluster `c` (through a
+/// portal it crossed there): in each cluster, the nearest portal out of it that the line crosses
+/// ahead, from behind to in front and [`CERTIFY_MARGIN`] inside its edges, leads to the next.
+/// Appends the clusters entered after `c`, in order, until the line meets no portal, or `limit`
+/// of them. Where the line from `a` to `b` is certified, the line so extended is a sight line of
+/// the portal model too: every cluster it runs through sees every other.
+pub fn walk(g: &Graph, a: DVec3, b: DVec3, mut c: u32, limit: usize, out: &mut Vec<u32>) {
+    let d = b - a;
+    let mut last = 1.0;
+    for _ in 0..limit {
+        let mut next: Option<(f64, u32)> = None;
+        for &qi in &g.cluster_portals[c as usize] {
+            let q = &g.portals[qi as usize];
+            let along = q.plane.normal.dot(d);
+            if along <= 0.0 {
+                continue;
+            }
+            let t = -q.plane.distance(a) / along;
+            if t > last && next.is_none_or(|(nearest, _)| t < nearest) && inside(g.edges(q), a + d * t) {
+                next = Some((t, q.leaf));
+            }
+        }
+        let Some((t, leaf)) = next else { return };
+        last = t;
+        c = leaf;
+        out.push(c);
+    }
 }
 
 #[cfg(test)]

@@ -103,6 +103,8 @@ pub struct Flow {
     pub chains: u64,
     /// Look for certified sight lines (for seeds).
     seeding: bool,
+    /// The clusters on a certified line (see [`Flow::certify`]), reused from line to line.
+    line: Vec<u32>,
 }
 
 impl Flow {
@@ -118,6 +120,7 @@ impl Flow {
             level,
             chains: 0,
             seeding,
+            line: Vec::new(),
         }
     }
 
@@ -317,9 +320,11 @@ impl Flow {
     /// clipped source to the middle of its clipped target, or one through the middle of the
     /// first or last clipped pass portal, crosses every original winding of the chain (frames
     /// `1..k`), record seeds: every two clusters the line runs through see each
-    /// other. Those are the chain's clusters: the base portal's owner, then the cluster each
-    /// frame `0..=k` reached. Pairs among the first [`Frame::paired`] of them are already
-    /// recorded; the frame's chain is then fully paired.
+    /// other. Those are the chain's clusters (the base portal's owner, then the cluster each
+    /// frame `0..=k` reached) and those the line runs on into past the target and behind the
+    /// source ([`certify::walk`]); the ones past the target are seen by this flow as well.
+    /// Pairs among the first [`Frame::paired`] clusters of the chain are already recorded; the
+    /// frame's chain is then fully paired.
     fn certify(&mut self, g: &Graph, seeds: &Seeds, k: usize) {
         let chain = &self.frames[..=k];
         let base = &g.portals[chain[0].portal as usize];
@@ -353,24 +358,43 @@ impl Flow {
             2 => &[1],
             _ => &[k - 1, 1],
         };
-        let ok = certified(a, b)
-            || passes.iter().filter_map(|&j| through(j)).any(|m| {
-                certify::extend(a, m, &target.plane).is_some_and(|b2| certified(a, b2))
-                    || certify::extend(b, m, &base.plane).is_some_and(|a2| certified(a2, b))
-            });
-        if !ok {
+        let line = if certified(a, b) {
+            Some((a, b))
+        } else {
+            passes.iter().filter_map(|&j| through(j)).find_map(|m| {
+                let ahead = certify::extend(a, m, &target.plane).filter(|&b2| certified(a, b2));
+                ahead.map(|b2| (a, b2)).or_else(|| {
+                    certify::extend(b, m, &base.plane).filter(|&a2| certified(a2, b)).map(|a2| (a2, b))
+                })
+            })
+        };
+        let Some((a, b)) = line else {
             return;
-        }
-        let cluster = |i: usize| if i == 0 { base.owner } else { chain[i - 1].leaf };
-        for j in chain[k].paired..k + 2 {
-            let cj = cluster(j);
+        };
+        // The line's clusters: the chain's (the base portal's owner, then the cluster each frame
+        // `0..=k` reached), those beyond the target, and those behind the source.
+        let mut on = std::mem::take(&mut self.line);
+        on.clear();
+        on.push(base.owner);
+        on.extend(chain.iter().map(|f| f.leaf));
+        let paired = chain[k].paired;
+        let chain_end = on.len();
+        certify::walk(g, a, b, target.leaf, MAX_FLOW_DEPTH, &mut on);
+        let ahead_end = on.len();
+        certify::walk(g, b, a, base.owner, MAX_FLOW_DEPTH, &mut on);
+        // Pairs among the first `paired` clusters of the chain are already recorded.
+        for j in paired..on.len() {
             for i in 0..j {
-                let ci = cluster(i);
-                seeds.record(ci, cj);
-                seeds.record(cj, ci);
+                seeds.record(on[i], on[j]);
+                seeds.record(on[j], on[i]);
             }
         }
-        self.frames[k].paired = k + 2;
+        self.frames[k].paired = chain_end;
+        // Beyond the target the line runs on through the base portal: seen from here too.
+        for &c in &on[chain_end..ahead_end] {
+            see(&mut self.seen, &mut self.vis, g, c);
+        }
+        self.line = on;
     }
 
     /// Drop from frame `d`'s `might` every portal not yet covered that lies wholly behind (or at
