@@ -64,8 +64,8 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
 /// per finished portal.
 ///
 /// The flood from the cluster a portal leads to enters a portal when it is a [`candidate`]; each
-/// cluster is entered once and each portal met tested once, so the work grows with what a portal
-/// might see, not with the number of portals in the map. (Entering a cluster once per portal
+/// cluster is entered once, so each portal out of it is met (and tested) once, and the work grows
+/// with what a portal might see, not with the number of portals in the map. (Entering a cluster once per portal
 /// into it cost, per source, the portals into a cluster times the portals out of it: nothing on
 /// leaves with a few portals each, but quadratic on clusters merged by `coarsen`, whose base vis
 /// of 10,000 tiny brushes did not finish in 15 minutes.)
@@ -77,11 +77,9 @@ pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u6
     }
     let cluster_words = bits::words(g.num_clusters());
     rows.par_chunks_mut(words).enumerate().for_each_init(
-        || (vec![0u64; words], vec![0u64; cluster_words], Vec::<u32>::new()),
-        |(tested, entered, stack), (pi, row)| {
-            tested.fill(0);
+        || (vec![0u64; cluster_words], Vec::<u32>::new()),
+        |(entered, stack), (pi, row)| {
             entered.fill(0);
-            bits::set(tested, pi);
             let p = &g.portals[pi];
             stack.clear();
             stack.push(p.leaf);
@@ -89,11 +87,9 @@ pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u6
             while let Some(c) = stack.pop() {
                 for &ti in &g.cluster_portals[c as usize] {
                     let ti = ti as usize;
-                    if bits::get(tested, ti) {
-                        continue;
-                    }
-                    bits::set(tested, ti);
-                    if candidate(g, p, &g.portals[ti]) {
+                    // `p` itself is met when the flood enters its own cluster; it is no candidate
+                    // of itself.
+                    if ti != pi && candidate(g, p, &g.portals[ti]) {
                         bits::set(row, ti);
                         let next = g.portals[ti].leaf;
                         if !bits::get(entered, next as usize) {

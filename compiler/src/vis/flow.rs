@@ -125,12 +125,14 @@ impl Flow {
     }
 
     /// An upper bound of the bytes a flow's state takes for rows of `words` words and
-    /// `clusters` clusters: its frames at the deepest, and its rows.
+    /// `clusters` clusters: its frames at the deepest, its rows, and a certified line's clusters
+    /// (the chain's, and up to [`MAX_FLOW_DEPTH`] each way beyond it).
     pub fn bytes(words: usize, clusters: usize) -> u128 {
         let frame = std::mem::size_of::<Frame>() + 16 * words + 2 * CAP * std::mem::size_of::<Plane>();
         (MAX_FLOW_DEPTH as u128 + 1) * frame as u128
             + std::mem::size_of::<Self>() as u128
             + 8 * (words + bits::words(clusters)) as u128
+            + 4 * (3 * MAX_FLOW_DEPTH as u128 + 2)
     }
 
     /// Cluster `c` is visible: every portal into it is covered.

@@ -466,9 +466,9 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     }
     // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
     let clusters = 3 * nc * cluster_row + u128::from(counts.leaves) * 8 + nc * 24;
-    // Base vis's `tested` row, `entered` clusters and flood stack (each cluster once), the
-    // cluster rows' portal row; with the flow, its state and the row it fills.
-    let mut per_thread = 2 * row + cluster_row + 4 * nc;
+    // Base vis's `entered` clusters and flood stack (each cluster once), the cluster rows' portal
+    // row; with the flow, its state and the row it fills.
+    let mut per_thread = row + cluster_row + 4 * nc;
     if !opts.fast {
         per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
     }
