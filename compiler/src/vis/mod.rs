@@ -353,13 +353,20 @@ pub fn run(
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
     check(prt)?;
+    // The thread count and the memory limit, each found once.
+    let threads = match opts.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        t => t,
+    };
+    let opts = &VisOptions { threads, ..opts.clone() };
+    let memory = crate::memory::limit(opts.max_memory);
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads.
     let single = VisOptions { threads: 1, ..opts.clone() };
-    let coarse = match check_memory(prt, &single).and_then(|()| check_work(prt, opts)) {
+    let coarse = match check_memory(prt, &single, memory).and_then(|()| check_work(prt, opts)) {
         Err(e @ (VisError::Memory { .. } | VisError::Work { .. })) if opts.coarsen => {
             let limits = coarsen::Limits {
-                memory: crate::memory::limit(opts.max_memory).map_or(u64::MAX, |(limit, _)| limit),
+                memory: memory.map_or(u64::MAX, |(limit, _)| limit),
                 work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
             };
             let coarse = coarsen::fit(prt, &single, limits).ok_or(e)?;
@@ -371,7 +378,7 @@ pub fn run(
         Ok(()) => None,
     };
     let input = coarse.as_ref().map_or(prt, |c| &c.prt);
-    check_memory(input, opts)?;
+    check_memory(input, opts, memory)?;
     check_work(input, opts)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
@@ -549,14 +556,19 @@ fn check_work(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
     }
 }
 
-/// Refuse a run whose [`memory_estimate`] exceeds the limit.
-fn check_memory(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
+/// Refuse a run whose [`memory_estimate`] exceeds `limit` ([`crate::memory::limit`]: the memory
+/// available, or [`VisOptions::max_memory`] when lower).
+fn check_memory(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    limit: Option<(u64, crate::memory::LimitSource)>,
+) -> Result<(), VisError> {
     let need = memory_estimate(prt, opts);
     // Which matrices dominate, for the message: two portal × portal, four cluster × cluster.
     let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
     let portal_matrices = 2 * one_way * bits::words(one_way as usize) as u128;
     let cluster_matrices = 4 * nc * bits::words(nc as usize) as u128;
-    match crate::memory::limit(opts.max_memory) {
+    match limit {
         Some((limit, source_of_limit)) if need > limit => Err(VisError::Memory {
             need,
             limit,
