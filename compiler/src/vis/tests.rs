@@ -521,3 +521,38 @@ fn a_work_limit_refuses_up_front_or_coarsens_until_the_estimate_is_under() {
     assert_eq!(at.expect("fits").rows, fine.rows);
     assert!(need < COARSEN_MAX_WORK);
 }
+
+#[test]
+fn a_walked_line_enters_the_clusters_it_crosses_portals_into_and_stops_at_a_wall() {
+    // Openings at y 0..32 in leaves 0..3, then one at y 400..432: a line along y = 16 crosses
+    // the first three portals and meets the wall of leaf 3 (the fourth opening is elsewhere).
+    let prt = corridor(&[0.0, 0.0, 0.0, 400.0], &[64.0; 4]);
+    let g = graph::Graph::new(&prt);
+    let (a, b) = (DVec3::new(10.0, 16.0, 16.0), DVec3::new(64.0, 16.0, 16.0));
+    // `b` lies on the portal from leaf 0 into leaf 1.
+    let mut out = Vec::new();
+    certify::walk(&g, a, b, 1, MAX_FLOW_DEPTH, &mut out);
+    assert_eq!(out, [2, 3]);
+    // The limit bounds the walk; the clusters come in the order the line enters them.
+    out.clear();
+    certify::walk(&g, a, b, 1, 1, &mut out);
+    assert_eq!(out, [2]);
+    // Backwards, through leaf 1's portal into leaf 0 and on: leaf 0 has no other portal.
+    out.clear();
+    certify::walk(
+        &g,
+        DVec3::new(150.0, 16.0, 16.0),
+        DVec3::new(128.0, 16.0, 16.0),
+        1,
+        MAX_FLOW_DEPTH,
+        &mut out,
+    );
+    assert_eq!(out, [0]);
+    // Along the top edge of the openings: twice the margin inside passes, half of it does not.
+    for (inset, want) in [(2.0, vec![2, 3]), (0.5, vec![])] {
+        let on_edge = DVec3::new(64.0, 32.0 - certify::CERTIFY_MARGIN * inset, 16.0);
+        out.clear();
+        certify::walk(&g, on_edge - DVec3::X, on_edge, 1, MAX_FLOW_DEPTH, &mut out);
+        assert_eq!(out, want, "{inset} margins inside the edge");
+    }
+}
