@@ -8,6 +8,8 @@
 //! line through both would lie in the plane) are refused. (The reference `vis` uses 0.1 here,
 //! which lets a leaf 0.01 units thick block sight.)
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use rayon::prelude::*;
 
 use super::graph::{Graph, OneWay};
@@ -60,8 +62,8 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
         && (e + p.radius < -COPLANAR_EPSILON || any_behind(g, p, t))
 }
 
-/// The `mightsee` rows: `words` u64 per portal, portal after portal. `progress` is called once
-/// per finished portal.
+/// The `mightsee` rows (`words` u64 per portal, portal after portal) and the cluster rows they
+/// give. `progress` is called once per finished portal.
 ///
 /// The flood from the cluster a portal leads to enters a portal when it is a [`candidate`]; each
 /// cluster is entered once, so each portal out of it is met (and tested) once, and the work grows
@@ -69,13 +71,15 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
 /// into it cost, per source, the portals into a cluster times the portals out of it: nothing on
 /// leaves with a few portals each, but quadratic on clusters merged by `coarsen`, whose base vis
 /// of 10,000 tiny brushes did not finish in 15 minutes.)
-pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u64> {
+pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Mightsee {
     let n = g.portals.len();
+    let nc = g.num_clusters();
+    let cluster_words = bits::words(nc);
     let mut rows = vec![0u64; n * words];
+    let reach: Vec<AtomicU64> = (0..nc * cluster_words).map(|_| AtomicU64::new(0)).collect();
     if words == 0 {
-        return rows;
+        return Mightsee { rows, clusters: reach.into_iter().map(AtomicU64::into_inner).collect() };
     }
-    let cluster_words = bits::words(g.num_clusters());
     rows.par_chunks_mut(words).enumerate().for_each_init(
         || (vec![0u64; cluster_words], Vec::<u32>::new()),
         |(entered, stack), (pi, row)| {
@@ -99,8 +103,26 @@ pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Vec<u6
                     }
                 }
             }
+            let owner = p.owner as usize * cluster_words;
+            for (w, &e) in entered.iter().enumerate().filter(|&(_, &e)| e != 0) {
+                reach[owner + w].fetch_or(e, Ordering::Relaxed);
+            }
             progress();
         },
     );
-    rows
+    let mut clusters: Vec<u64> = reach.into_iter().map(AtomicU64::into_inner).collect();
+    for c in 0..nc {
+        bits::set(&mut clusters[c * cluster_words..(c + 1) * cluster_words], c);
+    }
+    Mightsee { rows, clusters }
+}
+
+/// What base vis finds.
+pub struct Mightsee {
+    /// Per one-way portal, `words` words: the portals it might see.
+    pub rows: Vec<u64>,
+    /// Per cluster, `bits::words(clusters)` words: itself and every cluster the floods from its
+    /// portals entered, which are the clusters its portals lead to and those they might see (so
+    /// the cluster rows the `mightsee` rows give, before `M ∧ Mᵀ`).
+    pub clusters: Vec<u64>,
 }

@@ -619,10 +619,11 @@ fn run_in_pool(
     let n = g.portals.len();
     let words = bits::words(n);
     let counter = AtomicUsize::new(0);
-    let might = base::mightsee(&g, words, &|| {
+    let base::Mightsee { rows: might, clusters: might_clusters } = base::mightsee(&g, words, &|| {
         let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
         progress(VisProgress { phase: VisPhase::Base, done, total: n });
     });
+    let avg_mightsee = symmetric_result(prt, might_clusters).average_visible();
     let base_seconds = t0.elapsed().as_secs_f64();
     let mut stats = VisStats {
         leaves: prt.num_leaves,
@@ -632,6 +633,7 @@ fn run_in_pool(
         level: opts.level,
         fast: opts.fast,
         base_seconds,
+        avg_mightsee,
         ..VisStats::default()
     };
     let t1 = Instant::now();
@@ -640,14 +642,8 @@ fn run_in_pool(
     stats.flow_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let mut result = cluster_rows(prt, &g, &portal_vis, words);
-    if !opts.fast {
-        stats.avg_mightsee = cluster_rows(prt, &g, &might, words).average_visible();
-    }
     stats.rows_seconds = t2.elapsed().as_secs_f64();
     result.fill_stats(&mut stats);
-    if opts.fast {
-        stats.avg_mightsee = stats.avg_visible;
-    }
     result.stats = stats;
     Ok(result)
 }
@@ -967,7 +963,13 @@ fn cluster_rows(prt: &PortalFile, g: &graph::Graph, portal_vis: &[u64], words: u
             },
         );
     }
-    // Symmetric by intersection with the transpose.
+    symmetric_result(prt, rows)
+}
+
+/// The result of cluster rows (`bits::words(clusters)` words per cluster) made symmetric: `M ∧ Mᵀ`.
+fn symmetric_result(prt: &PortalFile, mut rows: Vec<u64>) -> VisResult {
+    let nc = prt.num_clusters as usize;
+    let cw = bits::words(nc);
     let snapshot = rows.clone();
     if cw > 0 {
         rows.par_chunks_mut(cw).enumerate().for_each(|(a, row)| {

@@ -359,15 +359,15 @@ fn allocated_matrices(prt: &PortalFile, fast: bool) -> u64 {
     let g = graph::Graph::new(prt);
     let n = g.portals.len();
     let words = bits::words(n);
-    let might = base::mightsee(&g, words, &|| {});
+    let might = base::mightsee(&g, words, &|| {}).rows;
     let nc = g.num_clusters();
     let cw = bits::words(nc);
     let result = cluster_rows(prt, &g, &might, words);
     // `mightsee`, the flow rows (or the clone with `--fast`), the seeds (known and pending); the
-    // cluster rows and their snapshot, and with the flow the `mightsee` cluster rows too.
+    // cluster rows and their snapshot, and the `mightsee` cluster rows of base vis.
     let portal_matrices = 2 * might.len() * 8;
     let seeds = if fast { 0 } else { 2 * nc * cw * 8 };
-    let rows = result.rows.len() * 8 * if fast { 2 } else { 3 };
+    let rows = result.rows.len() * 8 * 3;
     (portal_matrices + seeds + rows + g.portals.len() * std::mem::size_of::<graph::OneWay>()) as u64
 }
 
