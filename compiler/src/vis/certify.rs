@@ -14,8 +14,8 @@
 //! seen from the start, so branches that could only find it are not explored. Seeds change the
 //! work, not what is visible. The PVS can still differ slightly, since the flow's beam cull tests
 //! only portals into clusters not yet seen and so depends on the order clusters are found in: a
-//! few extra pairs kept on some maps (40 of 219,576 on E1M1), never fewer. A line refused here is
-//! simply not used.
+//! few extra pairs kept on some maps, never fewer (with every seed of [`super::seeds`]: 76 of
+//! 219,576 on E1M1, for 46 % fewer chains). A line refused here is simply not used.
 
 use glam::DVec3;
 use sightline_formats::geom::Plane;
