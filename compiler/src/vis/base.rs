@@ -67,20 +67,18 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
 ///
 /// The flood from the cluster a portal leads to enters a portal when it is a [`candidate`]; each
 /// cluster is entered once, so each portal out of it is met (and tested) once, and the work grows
-/// with what a portal might see, not with the number of portals in the map. (Entering a cluster once per portal
-/// into it cost, per source, the portals into a cluster times the portals out of it: nothing on
-/// leaves with a few portals each, but quadratic on clusters merged by `coarsen`, whose base vis
-/// of 10,000 tiny brushes did not finish in 15 minutes.)
+/// with what a portal might see, not with the number of portals in the map. (Entering a cluster
+/// once per portal into it cost, per source, the portals into a cluster times the portals out of
+/// it: nothing on leaves with a few portals each, but quadratic on clusters merged by `coarsen`,
+/// whose base vis of 10,000 tiny brushes did not finish in 15 minutes.)
 pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Mightsee {
     let n = g.portals.len();
     let nc = g.num_clusters();
     let cluster_words = bits::words(nc);
     let mut rows = vec![0u64; n * words];
     let reach: Vec<AtomicU64> = (0..nc * cluster_words).map(|_| AtomicU64::new(0)).collect();
-    if words == 0 {
-        return Mightsee { rows, clusters: reach.into_iter().map(AtomicU64::into_inner).collect() };
-    }
-    rows.par_chunks_mut(words).enumerate().for_each_init(
+    // Chunks of `words` words, one per portal (none without portals).
+    rows.par_chunks_mut(words.max(1)).enumerate().for_each_init(
         || (vec![0u64; cluster_words], Vec::<u32>::new()),
         |(entered, stack), (pi, row)| {
             entered.fill(0);

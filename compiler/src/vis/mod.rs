@@ -461,9 +461,10 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let graph = one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8)
         + 2 * (24 + 32) * points
         + nc * 2 * 24;
-    // `mightsee` and, with the flow, the rows it narrows (with `--fast`, their clone).
-    let mut matrices = 2 * one_way * row;
+    // `mightsee` and, with the flow, the rows it narrows.
+    let mut matrices = one_way * row;
     if !opts.fast {
+        matrices += one_way * row;
         // The certified seeds (known and pending), and the checkpoint log (a row per portal and
         // up to every seed pair, with its encoding while saved or loaded).
         matrices += 2 * nc * cluster_row;
@@ -623,7 +624,9 @@ fn run_in_pool(
         let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
         progress(VisProgress { phase: VisPhase::Base, done, total: n });
     });
-    let avg_mightsee = symmetric_result(prt, might_clusters).average_visible();
+    // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
+    let base_result = symmetric_result(prt, might_clusters);
+    let avg_mightsee = base_result.average_visible();
     let base_seconds = t0.elapsed().as_secs_f64();
     let mut stats = VisStats {
         leaves: prt.num_leaves,
@@ -636,13 +639,18 @@ fn run_in_pool(
         avg_mightsee,
         ..VisStats::default()
     };
-    let t1 = Instant::now();
-    let portal_vis =
-        if opts.fast { might.clone() } else { flow_all(prt, &g, &might, words, opts, progress, &mut stats)? };
-    stats.flow_seconds = t1.elapsed().as_secs_f64();
-    let t2 = Instant::now();
-    let mut result = cluster_rows(prt, &g, &portal_vis, words);
-    stats.rows_seconds = t2.elapsed().as_secs_f64();
+    let mut result = if opts.fast {
+        base_result
+    } else {
+        drop(base_result);
+        let t1 = Instant::now();
+        let portal_vis = flow_all(prt, &g, &might, words, opts, progress, &mut stats)?;
+        stats.flow_seconds = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let result = cluster_rows(prt, &g, &portal_vis, words);
+        stats.rows_seconds = t2.elapsed().as_secs_f64();
+        result
+    };
     result.fill_stats(&mut stats);
     result.stats = stats;
     Ok(result)
@@ -728,15 +736,16 @@ struct Cursor {
     halt: AtomicBool,
     /// Flow portals finished, for progress.
     counter: AtomicUsize,
-    /// Where a worker that waited past [`SPIN_WAITS`] sleeps until the batch opens or the run halts.
+    /// Where a worker that waited past [`SPIN_WAITS`] checks sleeps until the batch opens or the
+    /// run halts.
     gate: Mutex<()>,
     wake: Condvar,
 }
 
 /// Checks a worker makes for the next batch before it sleeps: batches of small maps close within
-/// microseconds, sooner than a sleeping thread wakes, while on larger maps a worker that spins
-/// through a long batch burns a core for nothing (on a 4×4×2 generated map a second thread spun
-/// away a fifth of the run's CPU time).
+/// microseconds, sooner than a sleeping thread wakes, while a worker that kept checking through a
+/// long batch would hold a core for nothing. (On the generated maps and dm2, E1M1, 96, 256 and
+/// 1024 checks measured alike, within noise.)
 const SPIN_WAITS: u32 = 256;
 
 impl Cursor {

@@ -363,11 +363,12 @@ fn allocated_matrices(prt: &PortalFile, fast: bool) -> u64 {
     let nc = g.num_clusters();
     let cw = bits::words(nc);
     let result = cluster_rows(prt, &g, &might, words);
-    // `mightsee`, the flow rows (or the clone with `--fast`), the seeds (known and pending); the
-    // cluster rows and their snapshot, and the `mightsee` cluster rows of base vis.
-    let portal_matrices = 2 * might.len() * 8;
+    // `mightsee` and, with the flow, the rows it narrows and the seeds (known and pending); the
+    // cluster rows and their snapshot, and with the flow the `mightsee` cluster rows of base vis
+    // too (with `--fast` they are the result).
+    let portal_matrices = might.len() * 8 * if fast { 1 } else { 2 };
     let seeds = if fast { 0 } else { 2 * nc * cw * 8 };
-    let rows = result.rows.len() * 8 * 3;
+    let rows = result.rows.len() * 8 * if fast { 2 } else { 3 };
     (portal_matrices + seeds + rows + g.portals.len() * std::mem::size_of::<graph::OneWay>()) as u64
 }
 
