@@ -10,8 +10,6 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use rayon::prelude::*;
-
 use super::graph::{Graph, OneWay};
 use sightline_formats::bits;
 
@@ -71,16 +69,19 @@ fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
 /// once per portal into it cost, per source, the portals into a cluster times the portals out of
 /// it: nothing on leaves with a few portals each, but quadratic on clusters merged by `coarsen`,
 /// whose base vis of 10,000 tiny brushes did not finish in 15 minutes.)
-pub fn mightsee(g: &Graph, words: usize, progress: &(dyn Fn() + Sync)) -> Mightsee {
+pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + Sync)) -> Mightsee {
     let n = g.portals.len();
     let nc = g.num_clusters();
     let cluster_words = bits::words(nc);
     let mut rows = vec![0u64; n * words];
     let reach: Vec<AtomicU64> = (0..nc * cluster_words).map(|_| AtomicU64::new(0)).collect();
     // Chunks of `words` words, one per portal (none without portals).
-    rows.par_chunks_mut(words.max(1)).enumerate().for_each_init(
+    super::parallel::each_row(
+        threads,
+        &mut rows,
+        words.max(1),
         || (vec![0u64; cluster_words], Vec::<u32>::new()),
-        |(entered, stack), (pi, row)| {
+        |(entered, stack), pi, row| {
             entered.fill(0);
             let p = &g.portals[pi];
             stack.clear();

@@ -560,7 +560,7 @@ mod tests {
         let n = 3 * MAX_FLOW_DEPTH as u32;
         let g = Graph::new(&corridor(n));
         let words = bits::words(g.portals.len());
-        let might = base::mightsee(&g, words, &|| {}).rows;
+        let might = base::mightsee(&g, words, 1, &|| {}).rows;
         let seeds = Seeds::new(g.num_clusters());
         for seeding in [false, true] {
             let mut flow = Flow::new(words, g.num_clusters(), 4, seeding);

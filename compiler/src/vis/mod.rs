@@ -57,6 +57,7 @@ pub mod coarsen;
 pub mod farplane;
 mod flow;
 mod graph;
+mod parallel;
 mod poly;
 mod seeds;
 mod state;
@@ -69,7 +70,6 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
-use rayon::prelude::*;
 use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
 
@@ -78,6 +78,14 @@ pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 
 /// Portals per deterministic flow batch (a portal sees the results of earlier batches only).
 pub const FLOW_BATCH: usize = 48;
+
+/// Below this [`work_estimate`] (in portal tests), a run given no thread count ([`VisOptions::threads`]
+/// 0) takes one thread: such a run lasts milliseconds, and starting threads and waiting at batch
+/// boundaries for a batch's longest flow cost more than a second thread shares. On a sealed room
+/// with a 100-sided pillar (estimate 9 × 10⁶) two threads took 9.0 ms of CPU to one thread's 5.8,
+/// for the same wall time; from about 7 × 10⁷ (the generated 4 × 4 × 2 rooms) two threads cut the
+/// wall time by a fifth or more.
+pub const SERIAL_WORK: u64 = 20_000_000;
 
 /// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
 /// portal it might still see counts as seen, which can only keep more: a thread holds at most this
@@ -98,7 +106,8 @@ pub struct VisOptions {
     /// depends on the order clusters are found in, and a seeded flow's row also holds portals
     /// into clusters only its cluster's other portals see).
     pub seeds: bool,
-    /// Worker threads; 0 uses every core.
+    /// Worker threads; 0 uses every core, or one for a run estimated below [`SERIAL_WORK`].
+    /// The result is the same for any count.
     pub threads: usize,
     /// Checkpoint file: loaded when present (resume), written every `checkpoint_interval`.
     pub state: Option<PathBuf>,
@@ -354,7 +363,8 @@ pub fn run(
     }
     check(prt)?;
     // The thread count and the memory limit, each found once.
-    let threads = match opts.threads {
+    let requested = opts.threads;
+    let threads = match requested {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         t => t,
     };
@@ -378,20 +388,30 @@ pub fn run(
         Ok(()) => None,
     };
     let input = coarse.as_ref().map_or(prt, |c| &c.prt);
+    // The automatic count is one thread below `SERIAL_WORK` (the estimate of what is run).
+    let opts = &match requested {
+        0 if work_estimate(input, opts) < SERIAL_WORK => VisOptions { threads: 1, ..opts.clone() },
+        _ => opts.clone(),
+    };
     check_memory(input, opts, memory)?;
     check_work(input, opts)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()
-        .map_err(|e| VisError::Threads(e.to_string()))?;
-    let threads = pool.current_num_threads();
-    let run = || pool.install(|| run_in_pool(input, opts, progress));
-    let mut result = std::panic::catch_unwind(AssertUnwindSafe(run)).map_err(panic_error)??;
+    let compute = || run_phases(input, opts, progress);
+    let outcome = if opts.threads > 1 {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(opts.threads)
+            .build()
+            .map_err(|e| VisError::Threads(e.to_string()))?;
+        std::panic::catch_unwind(AssertUnwindSafe(|| pool.install(compute)))
+    } else {
+        // One thread: no pool (`parallel` runs every phase on this thread).
+        std::panic::catch_unwind(AssertUnwindSafe(compute))
+    };
+    let mut result = outcome.map_err(panic_error)??;
     if let Some(c) = coarse {
         result = coarsen::expand(result, prt, &c.new_id);
         result.stats.coarsened = Some(c.stats);
     }
-    result.stats.threads = threads;
+    result.stats.threads = opts.threads;
     result.stats.work_estimate = work_estimate(prt, opts);
     Ok(result)
 }
@@ -610,7 +630,8 @@ fn input_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
     state::fnv1a(&[opts.level, FLOW_BATCH as u8, u8::from(opts.seeds)], h)
 }
 
-fn run_in_pool(
+/// The phases of a run, on the threads `opts.threads` says (see `parallel`).
+fn run_phases(
     prt: &PortalFile,
     opts: &VisOptions,
     progress: &(dyn Fn(VisProgress) + Sync),
@@ -620,12 +641,13 @@ fn run_in_pool(
     let n = g.portals.len();
     let words = bits::words(n);
     let counter = AtomicUsize::new(0);
-    let base::Mightsee { rows: might, clusters: might_clusters } = base::mightsee(&g, words, &|| {
-        let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
-        progress(VisProgress { phase: VisPhase::Base, done, total: n });
-    });
+    let base::Mightsee { rows: might, clusters: might_clusters } =
+        base::mightsee(&g, words, opts.threads, &|| {
+            let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(VisProgress { phase: VisPhase::Base, done, total: n });
+        });
     // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
-    let base_result = symmetric_result(prt, might_clusters);
+    let base_result = symmetric_result(prt, might_clusters, opts.threads);
     let avg_mightsee = base_result.average_visible();
     let base_seconds = t0.elapsed().as_secs_f64();
     let mut stats = VisStats {
@@ -647,7 +669,7 @@ fn run_in_pool(
         let portal_vis = flow_all(prt, &g, &might, words, opts, progress, &mut stats)?;
         stats.flow_seconds = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
-        let result = cluster_rows(prt, &g, &portal_vis, words);
+        let result = cluster_rows(prt, &g, &portal_vis, words, opts.threads);
         stats.rows_seconds = t2.elapsed().as_secs_f64();
         result
     };
@@ -834,8 +856,8 @@ impl Run<'_> {
             wake: Condvar::new(),
         };
         let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None });
-        // One worker on every thread of the pool the run is installed in (no thread of its own).
-        rayon::broadcast(|_| {
+        // One worker on every thread of the run's pool (no thread of its own), or on this one.
+        parallel::on_every_thread(self.opts.threads, || {
             let work = || self.worker(done, &test, &slots, &cursor, &boundary);
             if let Err(payload) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
                 let mut b = boundary.lock().unwrap_or_else(PoisonError::into_inner);
@@ -949,14 +971,23 @@ impl Run<'_> {
 
 /// Cluster rows from portal rows: a cluster sees itself, every cluster its portals lead to, and
 /// every cluster a portal it owns sees; then `M ∧ Mᵀ`.
-fn cluster_rows(prt: &PortalFile, g: &graph::Graph, portal_vis: &[u64], words: usize) -> VisResult {
+fn cluster_rows(
+    prt: &PortalFile,
+    g: &graph::Graph,
+    portal_vis: &[u64],
+    words: usize,
+    threads: usize,
+) -> VisResult {
     let nc = prt.num_clusters as usize;
     let cw = bits::words(nc);
     let mut rows = vec![0u64; nc * cw];
     if cw > 0 {
-        rows.par_chunks_mut(cw).enumerate().for_each_init(
+        parallel::each_row(
+            threads,
+            &mut rows,
+            cw,
             || vec![0u64; words],
-            |pv, (c, row)| {
+            |pv, c, row| {
                 pv.fill(0);
                 for &q in &g.cluster_portals[c] {
                     let q = q as usize;
@@ -972,18 +1003,19 @@ fn cluster_rows(prt: &PortalFile, g: &graph::Graph, portal_vis: &[u64], words: u
             },
         );
     }
-    symmetric_result(prt, rows)
+    symmetric_result(prt, rows, threads)
 }
 
 /// The result of cluster rows (`bits::words(clusters)` words per cluster) made symmetric: `M ∧ Mᵀ`.
-fn symmetric_result(prt: &PortalFile, mut rows: Vec<u64>) -> VisResult {
+fn symmetric_result(prt: &PortalFile, mut rows: Vec<u64>, threads: usize) -> VisResult {
     let nc = prt.num_clusters as usize;
     let cw = bits::words(nc);
     let snapshot = rows.clone();
     if cw > 0 {
-        rows.par_chunks_mut(cw).enumerate().for_each(|(a, row)| {
-            let ones: Vec<usize> = bits::ones(row).collect();
-            for b in ones {
+        parallel::each_row(threads, &mut rows, cw, Vec::new, |ones, a, row| {
+            ones.clear();
+            ones.extend(bits::ones(row));
+            for &b in ones.iter() {
                 if !bits::get(&snapshot[b * cw..(b + 1) * cw], a) {
                     bits::clear(row, b);
                 }

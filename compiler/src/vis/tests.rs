@@ -359,10 +359,10 @@ fn allocated_matrices(prt: &PortalFile, fast: bool) -> u64 {
     let g = graph::Graph::new(prt);
     let n = g.portals.len();
     let words = bits::words(n);
-    let might = base::mightsee(&g, words, &|| {}).rows;
+    let might = base::mightsee(&g, words, 1, &|| {}).rows;
     let nc = g.num_clusters();
     let cw = bits::words(nc);
-    let result = cluster_rows(prt, &g, &might, words);
+    let result = cluster_rows(prt, &g, &might, words, 1);
     // `mightsee` and, with the flow, the rows it narrows and the seeds (known and pending); the
     // cluster rows and their snapshot, and with the flow the `mightsee` cluster rows of base vis
     // too (with `--fast` they are the result).
@@ -556,4 +556,24 @@ fn a_walked_line_enters_the_clusters_it_crosses_portals_into_and_stops_at_a_wall
         certify::walk(&g, on_edge - DVec3::X, on_edge, 1, MAX_FLOW_DEPTH, &mut out);
         assert_eq!(out, want, "{inset} margins inside the edge");
     }
+}
+
+#[test]
+fn an_automatic_thread_count_is_one_below_the_serial_work_and_every_core_above() {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let small = corridor(&[0.0; 5], &[64.0; 5]);
+    // A straight corridor of 300 leaves: 598 one-way portals, 301 clusters.
+    let long = corridor(&[0.0; 300], &[64.0; 300]);
+    assert!(work_estimate(&small, &VisOptions::default()) < SERIAL_WORK);
+    assert!(work_estimate(&long, &VisOptions::default()) >= SERIAL_WORK);
+    let auto = |prt: &PortalFile| run(prt, &VisOptions::default(), &none()).expect("vis");
+    let given =
+        |prt: &PortalFile, threads| run(prt, &VisOptions { threads, ..VisOptions::default() }, &none());
+    assert_eq!(auto(&small).stats.threads, 1);
+    assert_eq!(given(&small, 2).expect("vis").stats.threads, 2, "a given count is kept");
+    let (long_auto, long_one) = (auto(&long), given(&long, 1).expect("vis"));
+    assert_eq!(long_auto.stats.threads, cores);
+    assert_eq!(long_one.stats.threads, 1);
+    assert_eq!(long_auto.stats.visible_pairs, 301 * 301);
+    assert_eq!(long_one.rows, long_auto.rows, "the same PVS without a pool");
 }

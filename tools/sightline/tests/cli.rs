@@ -489,6 +489,46 @@ fn run_within_two_minutes(cmd: &mut Command) -> Output {
     child.wait_with_output().expect("output")
 }
 
+/// A real Ctrl-C (SIGINT from `kill`) part way through a one-thread vis of a shared map: the run
+/// says it is stopping, saves its state and exits 2; the same command then resumes to the file an
+/// uninterrupted run writes, byte for byte, and removes the state.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_vis_with_its_state_saved_and_the_rerun_resumes_to_the_same_file() {
+    use std::process::Stdio;
+    let Some(src) = shared_map("ericw/e1m1_nodetail.prt") else { return };
+    let dir = temp_dir("ctrl-c");
+    let prt = dir.join("e1m1.prt");
+    std::fs::copy(&src, &prt).expect("copy the portal file");
+    let vis_file = dir.join("e1m1.vis");
+    let state = dir.join("e1m1.state");
+    let o = run(&["vis", s(&prt), "--no-progress", "--threads", "1"]);
+    assert_eq!(code(&o), 0, "uninterrupted: {}", stderr(&o));
+    let whole = std::fs::read(&vis_file).expect("the uninterrupted run's output");
+    std::fs::remove_file(&vis_file).expect("remove");
+    let args = ["vis", s(&prt), "--no-progress", "--threads", "1", "--state", s(&state)];
+    let child = bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    // Well inside the flow, which takes over a second of one core here.
+    std::thread::sleep(std::time::Duration::from_millis(250));
+    let pid = child.id().to_string();
+    let sent = Command::new("kill").args(["-INT", &pid]).status().expect("kill runs");
+    assert!(sent.success(), "SIGINT sent");
+    let start = std::time::Instant::now();
+    let o = child.wait_with_output().expect("output");
+    assert!(start.elapsed() < std::time::Duration::from_secs(60), "stopped at the next batch");
+    let err = stderr(&o);
+    assert_eq!(code(&o), 2, "interrupted: {err}");
+    assert!(err.contains("interrupt: stopping at the next batch"), "{err}");
+    assert!(err.contains("stopped after") && err.contains("--state to resume"), "{err}");
+    assert!(state.is_file(), "the state is saved");
+    assert!(!vis_file.exists(), "no output from a stopped run");
+    let o = run(&args);
+    assert_eq!(code(&o), 0, "resumed: {}", stderr(&o));
+    assert_eq!(std::fs::read(&vis_file).expect("the resumed run's output"), whole);
+    assert!(!state.exists(), "a finished run removes its state");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// FNV-1a 64, the checksum of a vis state's trailer.
 fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))

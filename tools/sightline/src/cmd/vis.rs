@@ -51,7 +51,8 @@ pub struct Args {
     /// A Quake, Half-Life or Quake 2 `.bsp` (its `.prt` must sit beside it), a base name (`e1m1`
     /// for `e1m1.bsp`), or a `.prt` file.
     pub input: PathBuf,
-    /// Worker threads (0: every core). The result is the same for any count.
+    /// Worker threads (0: every core, or one for a map small enough to take milliseconds). The
+    /// result is the same for any count.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Vis options.
@@ -682,20 +683,19 @@ pub(crate) fn interrupted(done: usize, total: usize, saved: bool) -> String {
     }
 }
 
-/// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. If a handler
-/// cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
+/// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. A second
+/// Ctrl-C, once the flag is set, ends the process at once (exit 130). The handler only sets the
+/// flag (no thread waits for the signal); the progress report says that the stop is under way. If
+/// a handler cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
 fn ctrl_c_flag() -> Arc<AtomicBool> {
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
-        let handler = flag.clone();
-        // A second Ctrl-C while the first is being honoured ends the process at once.
-        let _ = ctrlc::set_handler(move || {
-            if handler.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-            eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
-        });
+        use signal_hook::consts::SIGINT;
+        // Handlers run in the order registered: the exit looks at the flag before it is set.
+        if signal_hook::flag::register_conditional_shutdown(SIGINT, 130, flag.clone()).is_ok() {
+            let _ = signal_hook::flag::register(SIGINT, flag.clone());
+        }
         flag
     })
     .clone()
@@ -713,7 +713,13 @@ pub(crate) fn compute(
     let flow = crate::progress::bar("flow", 0, quiet);
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
+    let announced = AtomicBool::new(false);
     let report = |p: VisProgress| {
+        if opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
+            && !announced.swap(true, Ordering::Relaxed)
+        {
+            eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
+        }
         if p.phase == VisPhase::Coarsen {
             // Said at once: a merged run may still take long, and its PVS is looser.
             eprintln!(
