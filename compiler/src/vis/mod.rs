@@ -362,9 +362,10 @@ pub fn run(
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
     check(prt)?;
-    // The thread count and the memory limit, each found once.
-    let requested = opts.threads;
-    let threads = match requested {
+    // The thread count and the memory limit, each found once. The automatic count is one thread
+    // below `SERIAL_WORK` (and then the cores are not even counted).
+    let threads = match opts.threads {
+        0 if work_estimate(prt, opts) < SERIAL_WORK => 1,
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         t => t,
     };
@@ -388,11 +389,6 @@ pub fn run(
         Ok(()) => None,
     };
     let input = coarse.as_ref().map_or(prt, |c| &c.prt);
-    // The automatic count is one thread below `SERIAL_WORK` (the estimate of what is run).
-    let opts = &match requested {
-        0 if work_estimate(input, opts) < SERIAL_WORK => VisOptions { threads: 1, ..opts.clone() },
-        _ => opts.clone(),
-    };
     check_memory(input, opts, memory)?;
     check_work(input, opts)?;
     let compute = || run_phases(input, opts, progress);
