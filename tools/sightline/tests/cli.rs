@@ -202,6 +202,16 @@ fn copy_map(bsp: &Path, tag: &str, name: &str) -> PathBuf {
     dir
 }
 
+/// Copies the shared `.prt` `rel` into a fresh temp dir `tag` as `NAME.prt`; returns the dir and
+/// the copy, or `None` (with a note) when the shared maps are absent.
+fn copy_prt(rel: &str, tag: &str, name: &str) -> Option<(PathBuf, PathBuf)> {
+    let src = shared_map(rel)?;
+    let dir = temp_dir(tag);
+    let prt = dir.join(format!("{name}.prt"));
+    std::fs::copy(&src, &prt).expect("copy the portal file");
+    Some((dir, prt))
+}
+
 /// Runs `sightline ARGS` in `dir` (as TrenchBroom runs a compile profile's tasks in the map's
 /// folder) and checks exit 0.
 fn run_in(dir: &Path, args: &[&str]) -> Output {
@@ -496,10 +506,7 @@ fn run_within_two_minutes(cmd: &mut Command) -> Output {
 #[test]
 fn ctrl_c_stops_vis_with_its_state_saved_and_the_rerun_resumes_to_the_same_file() {
     use std::process::Stdio;
-    let Some(src) = shared_map("ericw/e1m1_nodetail.prt") else { return };
-    let dir = temp_dir("ctrl-c");
-    let prt = dir.join("e1m1.prt");
-    std::fs::copy(&src, &prt).expect("copy the portal file");
+    let Some((dir, prt)) = copy_prt("ericw/e1m1_nodetail.prt", "ctrl-c", "e1m1") else { return };
     let vis_file = dir.join("e1m1.vis");
     let state = dir.join("e1m1.state");
     let o = run(&["vis", s(&prt), "--no-progress", "--threads", "1"]);
@@ -1224,10 +1231,7 @@ fn mutated_trees_never_panic_portals_or_vis_from_the_bsp() {
 /// sized for one thread, so that any thread count gives the same PVS.)
 #[test]
 fn vis_coarsen_merges_clusters_until_it_fits() {
-    let Some(src) = shared_map("ericw/dm1.prt") else { return };
-    let dir = temp_dir("coarsen");
-    let prt = dir.join("dm1.prt");
-    std::fs::copy(&src, &prt).expect("copy");
+    let Some((dir, prt)) = copy_prt("ericw/dm1.prt", "coarsen", "dm1") else { return };
     let refused = run(&["vis", s(&prt), "--threads", "1", "--max-memory", "2000K"]);
     assert_eq!(code(&refused), 2, "{}", stderr(&refused));
     assert!(stderr(&refused).contains("rerun with --coarsen"), "{}", stderr(&refused));
@@ -1256,10 +1260,7 @@ fn vis_coarsen_merges_clusters_until_it_fits() {
 /// the input's estimate and the merged one.
 #[test]
 fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
-    let Some(src) = shared_map("ericw/dm1.prt") else { return };
-    let dir = temp_dir("max_work");
-    let prt = dir.join("dm1.prt");
-    std::fs::copy(&src, &prt).expect("copy");
+    let Some((dir, prt)) = copy_prt("ericw/dm1.prt", "max_work", "dm1") else { return };
     let full = run(&["vis", s(&prt), "--threads", "1", "--json"]);
     assert_eq!(code(&full), 0, "{}", stderr(&full));
     let report: serde_json::Value = serde_json::from_slice(&full.stdout).expect("json");
