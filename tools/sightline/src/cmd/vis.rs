@@ -683,22 +683,35 @@ pub(crate) fn interrupted(done: usize, total: usize, saved: bool) -> String {
     }
 }
 
+/// The flag Ctrl-C sets, once a vis options builder asked for it ([`ctrl_c_flag`]).
+static CTRL_C: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
 /// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. A second
 /// Ctrl-C, once the flag is set, ends the process at once (exit 130). The handler only sets the
-/// flag (no thread waits for the signal); the progress report says that the stop is under way. If
-/// a handler cannot be installed, Ctrl-C keeps its default effect (the flag then never turns on).
+/// flag (no thread waits for the signal); progress reports say that the stop is under way
+/// ([`announce_stop`]). If a handler cannot be installed, Ctrl-C keeps its default effect (the
+/// flag then never turns on).
 fn ctrl_c_flag() -> Arc<AtomicBool> {
-    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag = Arc::new(AtomicBool::new(false));
-        use signal_hook::consts::SIGINT;
-        // Handlers run in the order registered: the exit looks at the flag before it is set.
-        if signal_hook::flag::register_conditional_shutdown(SIGINT, 130, flag.clone()).is_ok() {
-            let _ = signal_hook::flag::register(SIGINT, flag.clone());
-        }
-        flag
-    })
-    .clone()
+    CTRL_C
+        .get_or_init(|| {
+            let flag = Arc::new(AtomicBool::new(false));
+            use signal_hook::consts::SIGINT;
+            // Handlers run in the order registered: the exit looks at the flag before it is set.
+            if signal_hook::flag::register_conditional_shutdown(SIGINT, 130, flag.clone()).is_ok() {
+                let _ = signal_hook::flag::register(SIGINT, flag.clone());
+            }
+            flag
+        })
+        .clone()
+}
+
+/// Says once on stderr, after Ctrl-C has set the flag, that the run is stopping. Every progress
+/// report of `vis` and `compile` calls it (a signal handler cannot print).
+pub(crate) fn announce_stop() {
+    static SAID: AtomicBool = AtomicBool::new(false);
+    if CTRL_C.get().is_some_and(|f| f.load(Ordering::Relaxed)) && !SAID.swap(true, Ordering::Relaxed) {
+        eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
+    }
 }
 
 /// Run vis with a progress bar (hidden under `--json` or without a terminal). Errors name `file`,
@@ -713,13 +726,8 @@ pub(crate) fn compute(
     let flow = crate::progress::bar("flow", 0, quiet);
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
-    let announced = AtomicBool::new(false);
     let report = |p: VisProgress| {
-        if opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
-            && !announced.swap(true, Ordering::Relaxed)
-        {
-            eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
-        }
+        announce_stop();
         if p.phase == VisPhase::Coarsen {
             // Said at once: a merged run may still take long, and its PVS is looser.
             eprintln!(
