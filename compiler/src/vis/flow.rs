@@ -25,9 +25,9 @@
 //! other portals counted seen. A flow records both for later flows ([`super::seeds`]): the pairs
 //! of its new certified lines, and, when it ends, the clusters it saw as seen from its own
 //! cluster (which that cluster's row holds anyway; on E1M1 this cuts the chains by a quarter).
-//! A frame remembers how many of the chain's clusters already have all their pairs recorded, so a line certified one frame deeper records only the
-//! pairs of the clusters after those: along a straight corridor, a number of pairs growing with
-//! the depth rather than with its square.
+//! A frame remembers how many of the chain's clusters already have all their pairs recorded, so a
+//! line certified one frame deeper records only the pairs of the clusters after those: along a
+//! straight corridor, a number of pairs growing with the depth rather than with its square.
 //!
 //! Depth: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep; there every portal still in
 //! the frame's `might` counts as seen, which can only keep more. A thread's frames, and the

@@ -362,14 +362,8 @@ pub fn run(
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
     check(prt)?;
-    // The thread count and the memory limit, each found once. The automatic count is one thread
-    // below `SERIAL_WORK` (and then the cores are not even counted).
-    let threads = match opts.threads {
-        0 if work_estimate(prt, opts) < SERIAL_WORK => 1,
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        t => t,
-    };
-    let opts = &VisOptions { threads, ..opts.clone() };
+    // The thread count and the memory limit, each found once.
+    let opts = &VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
     let memory = crate::memory::limit(opts.max_memory);
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads.
@@ -439,7 +433,17 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 /// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`]
 /// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
-    estimate(Counts::of(prt), opts)
+    estimate(Counts::of(prt), &VisOptions { threads: thread_count(prt, opts), ..opts.clone() })
+}
+
+/// The threads a run of `prt` with `opts` uses: [`VisOptions::threads`] when given, else one below
+/// [`SERIAL_WORK`] (the cores are then not even counted) and every core above it.
+fn thread_count(prt: &PortalFile, opts: &VisOptions) -> usize {
+    match opts.threads {
+        0 if work_estimate(prt, opts) < SERIAL_WORK => 1,
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        t => t,
+    }
 }
 
 /// The counts [`memory_estimate`] and [`work_estimate`] depend on.
@@ -464,12 +468,9 @@ impl Counts {
     }
 }
 
-/// [`memory_estimate`] from the counts.
+/// [`memory_estimate`] from the counts, for `opts.threads` threads (resolved: at least one).
 fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
-    let threads = match opts.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        t => t,
-    } as u128;
+    let threads = opts.threads.max(1) as u128;
     let (one_way, nc) = (2 * counts.portals as u128, u128::from(counts.clusters));
     let row = 8 * bits::words(one_way as usize) as u128;
     let cluster_row = 8 * bits::words(nc as usize) as u128;

@@ -570,6 +570,11 @@ fn an_automatic_thread_count_is_one_below_the_serial_work_and_every_core_above()
     let given =
         |prt: &PortalFile, threads| run(prt, &VisOptions { threads, ..VisOptions::default() }, &none());
     assert_eq!(auto(&small).stats.threads, 1);
+    let one = VisOptions { threads: 1, ..VisOptions::default() };
+    let estimate = |prt, opts: &VisOptions| memory_estimate(prt, opts);
+    assert_eq!(estimate(&small, &VisOptions::default()), estimate(&small, &one), "estimated for one thread");
+    let every = VisOptions { threads: cores, ..VisOptions::default() };
+    assert_eq!(estimate(&long, &VisOptions::default()), estimate(&long, &every), "estimated for every core");
     assert_eq!(given(&small, 2).expect("vis").stats.threads, 2, "a given count is kept");
     let (long_auto, long_one) = (auto(&long), given(&long, 1).expect("vis"));
     assert_eq!(long_auto.stats.threads, cores);
