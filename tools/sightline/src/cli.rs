@@ -4,7 +4,7 @@
 
 use std::ffi::OsString;
 
-use clap::{CommandFactory, Parser, Subcommand};
+use clap::{Parser, Subcommand};
 
 use crate::cmd;
 
@@ -17,24 +17,26 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands.
+/// The subcommands. Each one's arguments are built only when it is the one run (or its help is
+/// printed): building every subcommand's took about a tenth of a small vis's time.
 #[derive(Debug, Subcommand)]
+#[command(defer = true)]
 pub enum Command {
-    /// Compile a `.map` or `.obj` into a level (`.slvl`) with portals and PVS.
+    #[command(about = cmd::compile::ABOUT)]
     Compile(cmd::compile::Args),
-    /// Compute visibility for a Quake `.bsp` (reading its `.prt`) or a `.prt` file.
+    #[command(about = cmd::vis::ABOUT)]
     Vis(cmd::vis::Args),
-    /// Rebuild the portal file (`.prt`) of a compiled Quake `.bsp` from its tree.
+    #[command(about = cmd::portals::ABOUT)]
     Portals(cmd::portals::Args),
-    /// Prove a PVS conservative by ray sampling and measure how tight it is.
+    #[command(about = cmd::validate::ABOUT)]
     Validate(cmd::validate::Args),
-    /// Print counts and bounds of any file Sightline reads.
+    #[command(about = cmd::info::ABOUT)]
     Info(cmd::info::Args),
-    /// Render a level or BSP to PNG: first-person, plan, leak path or PVS matrix.
+    #[command(about = cmd::render::ABOUT)]
     Render(cmd::render::Args),
-    /// Benchmark the runtime backends on random camera poses.
+    #[command(about = cmd::bench::ABOUT)]
     Bench(cmd::bench::Args),
-    /// Guided visibility sampling for triangle meshes.
+    #[command(about = cmd::gvs::ABOUT)]
     Gvs(cmd::gvs::Args),
 }
 
@@ -95,8 +97,13 @@ pub fn translate_vis_args(args: Vec<OsString>) -> Result<Vec<OsString>, String> 
     if args[at].to_str() != Some("vis") {
         return Ok(args);
     }
-    let cmd = Cli::command();
-    let Some(vis) = cmd.find_subcommand("vis") else { return Ok(args) };
+    // Without a single-dash option there is nothing to turn (and no need to build the flags).
+    let words = &args[at + 1..];
+    let before_end = words.iter().take_while(|w| w.to_str() != Some("--"));
+    if !before_end.filter_map(|w| w.to_str()).any(|w| cmd::vis::single_dash_name(w).is_some()) {
+        return Ok(args);
+    }
+    let vis = <cmd::vis::Args as clap::Args>::augment_args(clap::Command::new("vis"));
     let mut takes_value = Vec::new();
     let mut shorts = vec!['h', 'V'];
     for arg in vis.get_arguments() {
@@ -106,6 +113,6 @@ pub fn translate_vis_args(args: Vec<OsString>) -> Result<Vec<OsString>, String> 
         }
         shorts.extend(arg.get_short());
     }
-    let rest = cmd::vis::ericw_args(&args[at + 1..], &|long| takes_value.iter().any(|l| l == long), &shorts)?;
+    let rest = cmd::vis::ericw_args(words, &|long| takes_value.iter().any(|l| l == long), &shorts)?;
     Ok(args[..=at].iter().cloned().chain(rest).collect())
 }

@@ -1292,3 +1292,11 @@ fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
         assert_eq!(code(&o), 2, "{bad}: {}", stderr(&o));
     }
 }
+
+/// The command definition passes clap's own checks (they run only in debug builds otherwise),
+/// with every deferred subcommand built.
+#[test]
+fn the_command_line_definition_is_consistent() {
+    use clap::CommandFactory;
+    sightline::cli::Cli::command().debug_assert();
+}

@@ -21,8 +21,12 @@ use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
 use crate::cli::Outcome;
 
+/// What `sightline bench` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Benchmark the runtime backends on random camera poses";
+
 /// Arguments of `sightline bench`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// Level (`.slvl`) or Quake map (`.bsp`; a PRT1 portal file beside it, found as `vis` finds
     /// it: `NAME.prt`, or for `NAME.vis.bsp` `NAME.vis.prt` then `NAME.prt`, gives the portal

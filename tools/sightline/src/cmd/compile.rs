@@ -16,8 +16,12 @@ use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;
 use crate::progress::Bars;
 
+/// What `sightline compile` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Compile a `.map` or `.obj` into a level (`.slvl`) with portals and PVS";
+
 /// Arguments of `sightline compile`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// Input file: a `.map` (Standard or Valve 220) or an `.obj` triangle mesh.
     pub input: PathBuf,

@@ -29,8 +29,12 @@ use sightline_raycast::Bvh;
 use crate::cli::Outcome;
 use crate::progress::Bars;
 
+/// What `sightline gvs` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Guided visibility sampling for triangle meshes";
+
 /// Arguments of `sightline gvs`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// Scene: `gen:<city|spheres|mixed|mesh>:<size>`, a `.obj` mesh or a `.slvl` level.
     pub input: String,

@@ -14,8 +14,12 @@ use sightline_formats::{FileKind, bsp, map, obj, prt, slvl};
 
 use crate::cli::Outcome;
 
+/// What `sightline info` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Print counts and bounds of any file Sightline reads";
+
 /// Arguments of `sightline info`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// Input file: `.map`, `.obj`, `.prt`, `.bsp` or `.slvl`.
     pub input: std::path::PathBuf,

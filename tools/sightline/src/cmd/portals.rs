@@ -13,8 +13,12 @@ use sightline_formats::bsp;
 
 use crate::cli::Outcome;
 
+/// What `sightline portals` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Rebuild the portal file (`.prt`) of a compiled Quake `.bsp` from its tree";
+
 /// Arguments of `sightline portals`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// A Quake `.bsp` (BSP29, BSP2 or BSP2-RMQ) or a Half-Life one (BSP30).
     pub input: PathBuf,

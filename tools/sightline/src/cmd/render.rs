@@ -23,8 +23,12 @@ use sightline_validate::render::view::{Camera, render_view};
 use sightline_validate::render::{matrix, read_pointfile};
 use sightline_validate::{self as validate, Options, OracleChoice, load, pvs};
 
+/// What `sightline render` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Render a level or BSP to PNG: first-person, plan, leak path or PVS matrix";
+
 /// Arguments of `sightline render`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// A Quake `.bsp`, a Sightline `.slvl`, or a `.map` (compiled without vis).
     pub input: PathBuf,

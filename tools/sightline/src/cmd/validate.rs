@@ -27,8 +27,12 @@ impl From<OracleArg> for OracleChoice {
     }
 }
 
+/// What `sightline validate` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Prove a PVS conservative by ray sampling and measure how tight it is";
+
 /// Arguments of `sightline validate`.
 #[derive(Debug, clap::Args)]
+#[command(about = ABOUT)]
 pub struct Args {
     /// A Quake-family `.bsp` with visdata (Quake 1, Half-Life, Quake 2), or a Sightline `.slvl`.
     pub input: std::path::PathBuf,

@@ -39,9 +39,13 @@ use sightline_formats::texture::Ambient;
 use crate::cli::Outcome;
 use crate::cmd::vis_external;
 
+/// What `sightline vis` does: its line in `sightline --help` and the first line of its own help.
+pub const ABOUT: &str = "Compute visibility for a Quake `.bsp` (reading its `.prt`) or a `.prt` file";
+
 /// Arguments of `sightline vis`. `Default` (for callers building them in code) is every flag off,
 /// no input and `threads` 0 (rayon's choice).
 #[derive(Debug, Default, clap::Args)]
+#[command(about = ABOUT)]
 #[command(after_help = "ericw-tools / id vis command lines work too: `sightline vis -threads 4 -fast e1m1` \
 reads e1m1.bsp; single-dash options (-threads N, -fast, -level N, -noambient, -noambientsky, \
 -noambientwater, -noambientslime, -noambientlava, -visdist N / -farplane N, -nostate, -noprogress) \
@@ -228,7 +232,7 @@ pub fn ericw_args(
             }
             continue;
         }
-        let Some(name) = s.strip_prefix('-').filter(|n| !n.is_empty() && s.parse::<f64>().is_err()) else {
+        let Some(name) = single_dash_name(s) else {
             out.push(word.clone());
             continue;
         };
@@ -270,6 +274,12 @@ pub fn ericw_args(
         }
     }
     Ok(out)
+}
+
+/// The name of a single-dash option word (`-threads` gives `threads`): a word after one `-` that
+/// is not a number. `--` words are not (see [`ericw_args`]).
+pub fn single_dash_name(word: &str) -> Option<&str> {
+    word.strip_prefix('-').filter(|n| !n.is_empty() && !n.starts_with('-') && word.parse::<f64>().is_err())
 }
 
 /// The file a `vis` input names: `NAME.bsp` for a base name `NAME` (not a file itself, not
