@@ -57,6 +57,11 @@ impl Seeds {
             return;
         }
         let (w, m) = (from * self.cw + bits::word_of(to), bits::mask(to));
+        // A plain load first: a pair recorded again (the common case on a chain's clusters) costs
+        // no locked write.
+        if self.pending[w].load(Ordering::Relaxed) & m != 0 {
+            return;
+        }
         if self.pending[w].fetch_or(m, Ordering::Relaxed) & m == 0 {
             self.dirty[bits::word_of(from)].fetch_or(bits::mask(from), Ordering::Relaxed);
         }
