@@ -43,7 +43,7 @@ use crate::cmd::vis_external;
 pub const ABOUT: &str = "Compute visibility for a Quake `.bsp` (reading its `.prt`) or a `.prt` file";
 
 /// Arguments of `sightline vis`. `Default` (for callers building them in code) is every flag off,
-/// no input and `threads` 0 (rayon's choice).
+/// no input and `threads` 0 (chosen from the work, see `--threads`).
 #[derive(Debug, Default, clap::Args)]
 #[command(about = ABOUT)]
 #[command(after_help = "ericw-tools / id vis command lines work too: `sightline vis -threads 4 -fast e1m1` \
