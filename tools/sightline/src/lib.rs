@@ -26,4 +26,5 @@ macro_rules! eprintln {
 pub mod cli;
 pub mod cmd;
 pub mod out;
+pub mod output;
 pub mod progress;

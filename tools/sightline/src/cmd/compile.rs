@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
-use sightline_formats::atomic::{check_writable, write_file_atomic};
+use sightline_formats::atomic::check_writable;
+
+use crate::output::write;
 
 use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;
@@ -71,6 +73,7 @@ fn print_leak(leak: &LeakReport, pts: &Path) {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let t0 = std::time::Instant::now();
     let out = args.output.clone().unwrap_or_else(|| with_extension(&args.input, "slvl"));
     // The level, portal file and pointfile all go into the output's folder: check up front that it
     // takes files, rather than after the whole compile.
@@ -89,8 +92,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let compiled = match compile(&source, &opts, &bars) {
         Ok(c) => c,
         Err(CompileError::Leak(leak)) => {
-            write_file_atomic(&pts_path, leak.pointfile().as_bytes())
-                .with_context(|| format!("writing {}", pts_path.display()))?;
+            write(&pts_path, leak.pointfile().as_bytes(), t0)?;
             if args.json {
                 println!(
                     "{}",
@@ -113,16 +115,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;
     let bytes =
         sightline_formats::slvl::write(&compiled.level, &sightline_formats::slvl::WriteOptions::default());
-    write_file_atomic(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+    write(&out, &bytes, t0)?;
     let wrote_prt = compiled.leak.is_none();
     if wrote_prt {
-        let text = sightline_formats::prt::write(&compiled.prt);
-        write_file_atomic(&prt_path, text.as_bytes())
-            .with_context(|| format!("writing {}", prt_path.display()))?;
+        write(&prt_path, sightline_formats::prt::write(&compiled.prt).as_bytes(), t0)?;
     }
     if let Some(leak) = &compiled.leak {
-        write_file_atomic(&pts_path, leak.pointfile().as_bytes())
-            .with_context(|| format!("writing {}", pts_path.display()))?;
+        write(&pts_path, leak.pointfile().as_bytes(), t0)?;
     }
     report(args, &compiled, &out, wrote_prt.then_some(prt_path.as_path()), &pts_path);
     Ok(if compiled.leak.is_some() { Outcome::Finding } else { Outcome::Clean })

@@ -462,17 +462,17 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t1 = Instant::now();
     let rows = Rows::new(&result);
     let output = match &input.bsp {
-        Some(b) if args.external_vis => vis_external::write_single(args, &path, b, &result, &rows, &ambient)?,
+        Some(b) if args.external_vis => {
+            vis_external::write_single(args, &path, b, &result, &rows, &ambient, t0)?
+        }
         Some(b) => {
             let out = visdata::write_into_bsp_with(&b.bytes, &b.bsp, &result, &rows, &ambient)?;
-            sightline_formats::atomic::write_file_atomic(&path, &out)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            crate::output::write(&path, &out, t0)?;
             path.clone()
         }
         None => {
             let vis_path = path.with_extension("vis");
-            sightline_formats::atomic::write_file_atomic(&vis_path, &rows.vis_file()?)
-                .with_context(|| format!("cannot write {}", vis_path.display()))?;
+            crate::output::write(&vis_path, &rows.vis_file()?, t0)?;
             vis_path
         }
     };
@@ -646,8 +646,7 @@ fn run_q2(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
         };
         (out, report)
     };
-    sightline_formats::atomic::write_file_atomic(path, &out)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    crate::output::write(path, &out, t0)?;
     let visibility_bytes = q2::read_header(&out).map_or(0, |l| l[q2::lump::VISIBILITY].length);
     let report = Q2Report { visibility_bytes, total_seconds: t0.elapsed().as_secs_f64(), ..report };
     crate::out::report(args.json, &report, || q2_text_report(&report))?;

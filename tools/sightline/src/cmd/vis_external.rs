@@ -113,8 +113,8 @@ fn map_name(path: &Path) -> anyhow::Result<String> {
     Ok(name)
 }
 
-/// Writes the external `.vis` of one map (`-o`, else the `.bsp`'s name with `.vis`); returns
-/// the file written.
+/// Writes the external `.vis` of one map (`-o`, else the `.bsp`'s name with `.vis`), for a
+/// command started at `t0`; returns the file written.
 pub(crate) fn write_single(
     args: &Args,
     path: &Path,
@@ -122,18 +122,18 @@ pub(crate) fn write_single(
     result: &VisResult,
     rows: &Rows,
     ambient: &AmbientOptions,
+    t0: Instant,
 ) -> anyhow::Result<PathBuf> {
     let record = visdata::vispatch_record(&map_name(path)?, &b.bytes, &b.bsp, result, rows, ambient)
         .with_context(|| format!("{}", path.display()))?;
     let out = args.output.clone().unwrap_or_else(|| path.with_extension("vis"));
-    write_pack(&out, &[record])?;
+    write_pack(&out, &[record], t0)?;
     Ok(out)
 }
 
-fn write_pack(out: &Path, records: &[VisPatchRecord]) -> anyhow::Result<()> {
+fn write_pack(out: &Path, records: &[VisPatchRecord], t0: Instant) -> anyhow::Result<()> {
     let bytes = vispatch::write(records).with_context(|| format!("cannot write {}", out.display()))?;
-    sightline_formats::atomic::write_file_atomic(out, &bytes)
-        .with_context(|| format!("cannot write {}", out.display()))
+    crate::output::write(out, &bytes, t0)
 }
 
 /// One map of a pack, as reported.
@@ -218,7 +218,7 @@ pub(crate) fn run_folder(args: &Args, dir: &Path) -> anyhow::Result<Outcome> {
         let why: Vec<String> = report.skipped.iter().map(|s| format!("  {}: {}", s.file, s.reason)).collect();
         bail!("{}: no .bsp in it could be vised; nothing written\n{}", dir.display(), why.join("\n"));
     }
-    write_pack(&out, &records)?;
+    write_pack(&out, &records, t0)?;
     report.output = Some(out.display().to_string());
     report.total_seconds = t0.elapsed().as_secs_f64();
     crate::out::report(args.json, &report, || pack_text(&report))?;

@@ -86,8 +86,7 @@ pub fn run(args: &Args, path: &Path, t0: Instant) -> anyhow::Result<Outcome> {
     }
     let lump = q3::vis_lump(clusters, &rows).with_context(|| format!("{name}"))?;
     let out = q3::write_with_visibility(&bytes, &lump).with_context(|| format!("{name}"))?;
-    sightline_formats::atomic::write_file_atomic(path, &out)
-        .with_context(|| format!("cannot write {name}"))?;
+    crate::output::write(path, &out, t0)?;
     let report = Q3Report {
         input: name.to_string(),
         game: "quake3",

@@ -1,0 +1,17 @@
+//! Writing the files a command makes from its work (levels, portal files, pointfiles, BSPs and
+//! `.vis` files written by vis): atomically, and flushed to disk when the work behind them took
+//! long enough for that to matter ([`Durability::for_work`]; a small map's whole vis lasts a few
+//! milliseconds, a third of which the flushes would be). Checkpoints are always flushed, by the
+//! library that writes them.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use sightline_formats::atomic::{Durability, write_file_with};
+
+/// Writes `bytes` to `path` atomically, with the durability of work started at `started`.
+pub fn write(path: &Path, bytes: &[u8], started: Instant) -> anyhow::Result<()> {
+    write_file_with(path, bytes, Durability::for_work(started.elapsed()))
+        .with_context(|| format!("cannot write {}", path.display()))
+}
