@@ -35,9 +35,11 @@ pub enum Durability {
 
 impl Durability {
     /// Work behind an output from which it is flushed. The two flushes cost about a millisecond of
-    /// waiting on a virtual disk (0.6–0.9 ms measured on this project's build host, ext4), a third
-    /// of a whole `sightline vis` of a small map; an output that took less than a second to
-    /// compute is cheaper to compute again than that, after the rare power failure that needs it.
+    /// waiting on a virtual disk (0.5–0.8 ms measured on this project's build hosts, ext4), a
+    /// fifth to a third of a whole `sightline vis` of a small map, and next to nothing beside a
+    /// second of work. Below it an output takes the risk every Quake tool's output takes (they
+    /// rewrite the file in place without a flush): after a power cut in the seconds before the
+    /// system writes it back, it may be empty on a file system that does not order the rename.
     pub const FLUSH_AFTER: Duration = Duration::from_secs(1);
 
     /// The durability of an output that took `work` to compute: [`Durability::Flushed`] from
