@@ -1,8 +1,8 @@
 //! Writing the files a command makes from its work (levels, portal files, pointfiles, BSPs and
 //! `.vis` files written by vis): atomically, and flushed to disk when the work behind them took
 //! long enough for that to matter ([`Durability::for_work`]; a small map's whole vis lasts a few
-//! milliseconds, a third of which the flushes would be). Checkpoints are always flushed, by the
-//! library that writes them.
+//! milliseconds, a fifth to a third of which the flushes would be). Checkpoints are always
+//! flushed, by the library that writes them.
 
 use std::path::Path;
 use std::time::Instant;

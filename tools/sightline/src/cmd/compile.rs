@@ -12,10 +12,9 @@ use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
 use sightline_formats::atomic::check_writable;
 
-use crate::output::write;
-
 use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;
+use crate::output;
 use crate::progress::Bars;
 
 /// What `sightline compile` does: its line in `sightline --help` and the first line of its own help.
@@ -92,7 +91,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let compiled = match compile(&source, &opts, &bars) {
         Ok(c) => c,
         Err(CompileError::Leak(leak)) => {
-            write(&pts_path, leak.pointfile().as_bytes(), t0)?;
+            output::write(&pts_path, leak.pointfile().as_bytes(), t0)?;
             if args.json {
                 println!(
                     "{}",
@@ -115,13 +114,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;
     let bytes =
         sightline_formats::slvl::write(&compiled.level, &sightline_formats::slvl::WriteOptions::default());
-    write(&out, &bytes, t0)?;
+    output::write(&out, &bytes, t0)?;
     let wrote_prt = compiled.leak.is_none();
     if wrote_prt {
-        write(&prt_path, sightline_formats::prt::write(&compiled.prt).as_bytes(), t0)?;
+        output::write(&prt_path, sightline_formats::prt::write(&compiled.prt).as_bytes(), t0)?;
     }
     if let Some(leak) = &compiled.leak {
-        write(&pts_path, leak.pointfile().as_bytes(), t0)?;
+        output::write(&pts_path, leak.pointfile().as_bytes(), t0)?;
     }
     report(args, &compiled, &out, wrote_prt.then_some(prt_path.as_path()), &pts_path);
     Ok(if compiled.leak.is_some() { Outcome::Finding } else { Outcome::Clean })
