@@ -681,8 +681,11 @@ fn q2_text_report(r: &Q2Report) -> String {
 }
 
 /// What to tell the user when vis stopped on request after `done` of `total` flow portals, with or
-/// without a state file to resume from.
+/// without a state file to resume from. A stop by Ctrl-C is announced first ([`announce_stop`]),
+/// if no progress report did: the signal may land after a batch's last report and before vis
+/// checks the flag at its end.
 pub(crate) fn interrupted(done: usize, total: usize, saved: bool) -> String {
+    announce_stop();
     if saved {
         format!("stopped after {done} of {total} portals; run again with the same --state to resume")
     } else {
