@@ -33,11 +33,12 @@
 //!   whatever the input.
 //! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
 //!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
-//! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches of
-//!   [`FLOW_BATCH`]; a portal uses the final rows of portals from earlier batches only (in place
-//!   of their `mightsee`), so the output is the same for any thread count and any timing.
-//!   (Batches of one would let every portal use all earlier results, as the reference's single
-//!   thread does; on dm1 that saves under 3 % of the work, so batches cost little.)
+//! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches
+//!   ([`flow_batch`]: [`FLOW_BATCH`], or [`SMALL_FLOW_BATCH`] for an input small enough to run
+//!   on one thread); a portal uses the final rows and seeds of portals from earlier batches only
+//!   (in place of their `mightsee`), so the output is the same for any thread count and any
+//!   timing. (Batches of one would let every portal use all earlier results, as the reference's
+//!   single thread does: on dm1 9 % fewer chains than batches of 48, on small inputs a fifth.)
 //! - **Resumable**: with [`VisOptions::state`], finished batches are checkpointed and a rerun
 //!   continues after them, producing the same result as an uninterrupted run. The checkpoint is
 //!   the log of the batch boundaries (`state`), replayed and checked on resume: a damaged or
@@ -76,8 +77,18 @@ use sightline_formats::prt::PortalFile;
 pub use base::COPLANAR_EPSILON;
 pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 
-/// Portals per deterministic flow batch (a portal sees the results of earlier batches only).
+/// Portals per deterministic flow batch (a portal sees the results of earlier batches only), for
+/// an input estimated at [`SERIAL_WORK`] or more: such runs take every core, and a batch has to
+/// hold enough flows to keep them busy until its longest flow ends.
 pub const FLOW_BATCH: usize = 48;
+
+/// Portals per flow batch for an input estimated below [`SERIAL_WORK`], which takes one thread
+/// unless told otherwise: the sooner a flow's rows and seeds reach later flows, the fewer chains
+/// they visit. Against batches of [`FLOW_BATCH`] on ericw-tools' compiles of the generated maps
+/// (one thread, instructions): 2 × 2 × 1 rooms −21 %, 4 × 4 × 1 rooms −18 %, the 100-sided
+/// pillar about −25 %, the same PVS; batches of one save 1–2 % more, but leave a second thread
+/// (`--threads 2`) with nothing to do but wait at every portal.
+pub const SMALL_FLOW_BATCH: usize = 4;
 
 /// Below this [`work_estimate`] (in portal tests), a run given no thread count ([`VisOptions::threads`]
 /// 0) takes one thread: such a run lasts milliseconds, and starting threads and waiting at batch
@@ -86,6 +97,13 @@ pub const FLOW_BATCH: usize = 48;
 /// for the same wall time; from about 7 × 10⁷ (the generated 4 × 4 × 2 rooms) two threads cut the
 /// wall time by a fifth or more.
 pub const SERIAL_WORK: u64 = 20_000_000;
+
+/// Portals per flow batch for a run of `prt` (the input the flow reads, after any merging) with
+/// `opts`: [`SMALL_FLOW_BATCH`] below [`SERIAL_WORK`], else [`FLOW_BATCH`]. It depends on the
+/// input alone, never on the thread count, so every thread count gives the same result.
+pub fn flow_batch(prt: &PortalFile, opts: &VisOptions) -> usize {
+    if work_estimate(prt, opts) < SERIAL_WORK { SMALL_FLOW_BATCH } else { FLOW_BATCH }
+}
 
 /// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
 /// portal it might still see counts as seen, which can only keep more: a thread holds at most this
@@ -497,7 +515,8 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     if !opts.fast {
         per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
     }
-    let slots = FLOW_BATCH as u128 * row;
+    // The larger of the two batch sizes (see `flow_batch`).
+    let slots = FLOW_BATCH.max(SMALL_FLOW_BATCH) as u128 * row;
     let total = graph + matrices + clusters + threads * per_thread + slots;
     u64::try_from(total).unwrap_or(u64::MAX)
 }
@@ -620,11 +639,12 @@ fn panic_error(payload: Box<dyn Any + Send>) -> VisError {
     VisError::Panicked(message)
 }
 
-/// Hash of the input and of the options that change flow rows.
+/// Hash of the input and of the options that change flow rows (the batch size among them).
 fn input_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
     let text = sightline_formats::prt::write(prt);
     let h = state::fnv1a(text.as_bytes(), state::FNV_OFFSET);
-    state::fnv1a(&[opts.level, FLOW_BATCH as u8, u8::from(opts.seeds)], h)
+    let batch = u8::try_from(flow_batch(prt, opts)).unwrap_or(u8::MAX);
+    state::fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
 }
 
 /// The phases of a run, on the threads `opts.threads` says (see `parallel`).
@@ -692,19 +712,15 @@ fn flow_all(
     symmetry::tighten_all(&mut test, words, n);
     let nc = g.num_clusters();
     let mut seeds = seeds::Seeds::new(nc);
+    let batch = flow_batch(prt, opts);
     let mut done = 0usize;
     // With a state file, the log of every batch boundary: loaded and replayed when the file
     // exists (the rows and seeds the uninterrupted run had after those batches), then extended.
     let mut log = None;
     if let Some(path) = &opts.state {
         // Hashing prints the whole portal file: only checkpoints need the input's identity.
-        let want = state::Expect {
-            input_hash: input_hash(prt, opts),
-            portals: n,
-            words,
-            clusters: nc,
-            batch: FLOW_BATCH,
-        };
+        let want =
+            state::Expect { input_hash: input_hash(prt, opts), portals: n, words, clusters: nc, batch };
         log = Some(match state::load(path, &want)? {
             Some(st) => {
                 st.replay(&order, &mut test, seeds.known_mut()).map_err(|e| state::inconsistent(path, &e))?;
@@ -716,7 +732,7 @@ fn flow_all(
             None => state::State::new(want.input_hash, n, words, nc),
         });
     }
-    let run = Run { g, order: &order, words, n, opts, progress };
+    let run = Run { g, order: &order, words, n, batch, opts, progress };
     let test = run.batches(Rows { test, seeds }, done, log, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
@@ -739,6 +755,8 @@ struct Run<'a> {
     order: &'a [usize],
     words: usize,
     n: usize,
+    /// Portals per batch ([`flow_batch`]).
+    batch: usize,
     opts: &'a VisOptions,
     progress: &'a (dyn Fn(VisProgress) + Sync),
 }
@@ -828,7 +846,7 @@ struct Boundary<'s> {
 }
 
 impl Run<'_> {
-    /// Positions `done..n` of `order` in batches of [`FLOW_BATCH`] (counted from `done`): a
+    /// Positions `done..n` of `order` in batches of `self.batch` (counted from `done`): a
     /// portal starts once every earlier batch is folded into `test`, and reads `test` only then.
     /// A worker runs on each thread of the pool, takes portals from a shared cursor and waits
     /// for the next batch by spinning briefly, then sleeping ([`Cursor::wait_for`]). A worker
@@ -842,11 +860,11 @@ impl Run<'_> {
         stats: &mut VisStats,
     ) -> Result<Vec<u64>, VisError> {
         let test = RwLock::new(rows);
-        let slots: Vec<Mutex<Slot>> = (0..FLOW_BATCH).map(|_| Mutex::new(Slot::default())).collect();
+        let slots: Vec<Mutex<Slot>> = (0..self.batch).map(|_| Mutex::new(Slot::default())).collect();
         let cursor = Cursor {
             next: AtomicUsize::new(done),
             finished: AtomicUsize::new(0),
-            ready: AtomicUsize::new((done + FLOW_BATCH).min(self.n)),
+            ready: AtomicUsize::new((done + self.batch).min(self.n)),
             halt: AtomicBool::new(false),
             counter: AtomicUsize::new(done),
             gate: Mutex::new(()),
@@ -898,8 +916,8 @@ impl Run<'_> {
                 let rows = test.read().unwrap_or_else(PoisonError::into_inner);
                 f.run(self.g, &rows.test, &rows.seeds, self.order[i], &mut out);
             }
-            let batch_start = start + (i - start) / FLOW_BATCH * FLOW_BATCH;
-            let batch_end = (batch_start + FLOW_BATCH).min(self.n);
+            let batch_start = start + (i - start) / self.batch * self.batch;
+            let batch_end = (batch_start + self.batch).min(self.n);
             *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
                 Slot { row: out, chains: f.chains };
             let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
@@ -962,7 +980,7 @@ impl Run<'_> {
             return;
         }
         cursor.finished.store(0, Ordering::Release);
-        cursor.open((done + FLOW_BATCH).min(n));
+        cursor.open((done + self.batch).min(n));
     }
 }
 

@@ -91,11 +91,11 @@ fn deterministic_across_threads_and_resumable() {
     let dir = std::env::temp_dir().join(format!("sightline-vis-unit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     let state = dir.join("c.state");
-    let opts =
-        VisOptions { state: Some(state.clone()), stop_after: Some(FLOW_BATCH), ..VisOptions::default() };
+    let batch = flow_batch(&prt, &VisOptions::default());
+    let opts = VisOptions { state: Some(state.clone()), stop_after: Some(batch), ..VisOptions::default() };
     assert!(matches!(run(&prt, &opts, &none()), Err(VisError::Interrupted { .. })));
     let resumed = run(&prt, &VisOptions { stop_after: None, ..opts }, &none()).expect("resume");
-    assert_eq!(resumed.stats.resumed_portals, FLOW_BATCH);
+    assert_eq!(resumed.stats.resumed_portals, batch);
     assert_eq!(resumed.rows, one.rows);
     assert!(!state.exists(), "finished runs remove their state");
     std::fs::remove_dir_all(&dir).expect("cleanup");
@@ -203,7 +203,7 @@ fn expect(prt: &PortalFile, opts: &VisOptions) -> state::Expect {
         portals: n,
         words: bits::words(n),
         clusters: g.num_clusters(),
-        batch: FLOW_BATCH,
+        batch: flow_batch(prt, opts),
     }
 }
 
@@ -224,6 +224,7 @@ fn check_resumes(prt: &PortalFile, name: &str, ks: &[usize]) {
     let path = dir.join(format!("{name}.state"));
     let opts = VisOptions { threads: 2, state: Some(path.clone()), ..VisOptions::default() };
     let want = expect(prt, &opts);
+    let batch = want.batch;
     // Resume from the file at `path`: the uninterrupted PVS, or an error naming the file.
     let resume = |must_succeed: bool, what: &str| -> Option<VisResult> {
         match run(prt, &opts, &none()) {
@@ -240,19 +241,19 @@ fn check_resumes(prt: &PortalFile, name: &str, ks: &[usize]) {
         }
     };
     for &k in ks {
-        let stop = VisOptions { stop_after: Some(k * FLOW_BATCH), ..opts.clone() };
+        let stop = VisOptions { stop_after: Some(k * batch), ..opts.clone() };
         assert!(matches!(run(prt, &stop, &none()), Err(VisError::Interrupted { .. })), "{name}: stop at {k}");
         let saved = std::fs::read(&path).expect("state written");
         let st = state::load(&path, &want).expect("load").expect("present");
-        assert_eq!(st.done as usize, k * FLOW_BATCH);
+        assert_eq!(st.done as usize, k * batch);
         assert!(!st.pairs.is_empty(), "{name}: the flows certified seed pairs");
         // Every shorter checkpoint, down to none, is one the run could have written.
         for j in (0..=k).rev() {
             let mut cut = st.clone();
-            cut.truncate(j * FLOW_BATCH);
+            cut.truncate(j * batch);
             state::save(&path, &cut).expect("save");
             let r = resume(true, &format!("cut to {j} of {k} batches")).expect("resumed");
-            assert_eq!(r.stats.resumed_portals, j * FLOW_BATCH);
+            assert_eq!(r.stats.resumed_portals, j * batch);
             assert!(!path.exists(), "a finished run removes its state");
         }
         // Damage anywhere: header, `done`, rows, pairs, the checksum.
@@ -273,10 +274,10 @@ fn check_resumes(prt: &PortalFile, name: &str, ks: &[usize]) {
             tampered.push(("a padding bit in a row", b));
         }
         let mut b = st.clone();
-        b.truncate(st.done as usize - 20);
+        b.truncate(st.done as usize - batch.div_ceil(2));
         tampered.push(("cut between batches (a resume would batch the rest differently)", b));
         let mut b = st.clone();
-        b.done -= FLOW_BATCH as u64;
+        b.done -= batch as u64;
         tampered.push(("`done` rewound without its records", b));
         let mut b = st.clone();
         let words = want.words;
@@ -303,8 +304,9 @@ fn check_resumes(prt: &PortalFile, name: &str, ks: &[usize]) {
 fn resume_from_any_checkpoint_equals_the_uninterrupted_run_or_fails() {
     let prt = grid(12, 12, 7);
     let n = graph::Graph::new(&prt).portals.len();
-    assert!(n > 8 * FLOW_BATCH, "{n} portals make several batches");
-    check_resumes(&prt, "grid", &[1, 3, n / FLOW_BATCH - 1]);
+    let batch = flow_batch(&prt, &VisOptions::default());
+    assert!(n > 8 * batch, "{n} portals make several batches");
+    check_resumes(&prt, "grid", &[1, 3, n / batch - 1]);
 }
 
 #[test]
@@ -331,7 +333,7 @@ fn a_panicking_worker_ends_the_run_with_an_error_not_a_hang() {
     let prt = grid(8, 8, 3);
     let n = graph::Graph::new(&prt).portals.len();
     for threads in [1, 2, 4] {
-        for at in [0, 5, FLOW_BATCH + 1, n - 1] {
+        for at in [0, 5, flow_batch(&prt, &VisOptions::default()) + 1, n - 1] {
             let prt = prt.clone();
             let r = within_a_minute(move || {
                 run(&prt, &VisOptions { threads, panic_at: Some(at), ..VisOptions::default() }, &none())
