@@ -102,7 +102,12 @@ pub const SERIAL_WORK: u64 = 20_000_000;
 /// `opts`: [`SMALL_FLOW_BATCH`] below [`SERIAL_WORK`], else [`FLOW_BATCH`]. It depends on the
 /// input alone, never on the thread count, so every thread count gives the same result.
 pub fn flow_batch(prt: &PortalFile, opts: &VisOptions) -> usize {
-    if work_estimate(prt, opts) < SERIAL_WORK { SMALL_FLOW_BATCH } else { FLOW_BATCH }
+    batch(Counts::of(prt), opts)
+}
+
+/// [`flow_batch`] from the counts.
+fn batch(counts: Counts, opts: &VisOptions) -> usize {
+    if work(counts, opts) < SERIAL_WORK { SMALL_FLOW_BATCH } else { FLOW_BATCH }
 }
 
 /// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
@@ -515,8 +520,7 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     if !opts.fast {
         per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
     }
-    // The larger of the two batch sizes (see `flow_batch`).
-    let slots = FLOW_BATCH.max(SMALL_FLOW_BATCH) as u128 * row;
+    let slots = batch(counts, opts) as u128 * row;
     let total = graph + matrices + clusters + threads * per_thread + slots;
     u64::try_from(total).unwrap_or(u64::MAX)
 }
@@ -639,11 +643,11 @@ fn panic_error(payload: Box<dyn Any + Send>) -> VisError {
     VisError::Panicked(message)
 }
 
-/// Hash of the input and of the options that change flow rows (the batch size among them).
-fn input_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
+/// Hash of the input and of what changes flow rows: the options and the run's `batch` size.
+fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u64 {
     let text = sightline_formats::prt::write(prt);
     let h = state::fnv1a(text.as_bytes(), state::FNV_OFFSET);
-    let batch = u8::try_from(flow_batch(prt, opts)).unwrap_or(u8::MAX);
+    let batch = u8::try_from(batch).unwrap_or(u8::MAX);
     state::fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
 }
 
@@ -719,8 +723,13 @@ fn flow_all(
     let mut log = None;
     if let Some(path) = &opts.state {
         // Hashing prints the whole portal file: only checkpoints need the input's identity.
-        let want =
-            state::Expect { input_hash: input_hash(prt, opts), portals: n, words, clusters: nc, batch };
+        let want = state::Expect {
+            input_hash: input_hash(prt, opts, batch),
+            portals: n,
+            words,
+            clusters: nc,
+            batch,
+        };
         log = Some(match state::load(path, &want)? {
             Some(st) => {
                 st.replay(&order, &mut test, seeds.known_mut()).map_err(|e| state::inconsistent(path, &e))?;

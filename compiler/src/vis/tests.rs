@@ -198,12 +198,13 @@ fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
 fn expect(prt: &PortalFile, opts: &VisOptions) -> state::Expect {
     let g = graph::Graph::new(prt);
     let n = g.portals.len();
+    let batch = flow_batch(prt, opts);
     state::Expect {
-        input_hash: input_hash(prt, opts),
+        input_hash: input_hash(prt, opts, batch),
         portals: n,
         words: bits::words(n),
         clusters: g.num_clusters(),
-        batch: flow_batch(prt, opts),
+        batch,
     }
 }
 
