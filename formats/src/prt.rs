@@ -91,7 +91,7 @@ impl PrtFormat {
     /// when the first portal line has a number where PRT1 has `(` (or, without portals, when a
     /// fourth header count follows). `None` when the header is none of them.
     pub fn of_text(text: &str) -> Option<Self> {
-        let mut lx = Lexer { text, pos: 0, line: 1, col: 1 };
+        let mut lx = Lexer::new(text);
         let head = lx.next_token()?.text;
         if head.parse::<i64>().is_ok() {
             return Some(vhlt::sniff(text));
@@ -257,7 +257,7 @@ const MIN_PORTAL_CHARS: usize = 24;
 
 /// Read a portal file. `file` is only used in error messages.
 pub fn read(text: &str, file: &str) -> Result<PortalFile, PrtError> {
-    let mut r = Reader { lx: Lexer { text, pos: 0, line: 1, col: 1 }, file };
+    let mut r = Reader { lx: Lexer::new(text), file };
     if r.lx.clone().next_token().is_some_and(|t| t.text.parse::<i64>().is_ok()) {
         return vhlt::read(r);
     }
@@ -408,56 +408,74 @@ fn shown(text: &str) -> String {
 #[derive(Debug, Clone, Copy)]
 struct Token<'a> {
     text: &'a str,
-    line: u32,
-    col: u32,
+    /// Byte offset of the token in the text.
+    start: usize,
 }
 
+/// Splits the text at whitespace (as `char::is_whitespace`) and around `(` and `)`, byte by byte
+/// over ASCII; line and column are worked out only for an error ([`Lexer::locate`]).
 #[derive(Clone)]
 struct Lexer<'a> {
     text: &'a str,
     pos: usize,
-    line: u32,
-    col: u32,
+}
+
+/// ASCII whitespace as `char::is_whitespace` has it (tab, line feed, vertical tab, form feed,
+/// carriage return, space).
+fn ascii_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t'..=b'\r')
 }
 
 impl<'a> Lexer<'a> {
-    fn position(&self) -> (u32, u32) {
-        (self.line, self.col)
+    fn new(text: &'a str) -> Self {
+        Self { text, pos: 0 }
     }
 
-    fn bump(&mut self, c: char) {
-        self.pos += c.len_utf8();
-        if c == '\n' {
-            self.line += 1;
-            self.col = 1;
-        } else {
-            self.col += 1;
-        }
+    /// Line and column (both from 1, the column in characters) of the next character.
+    fn position(&self) -> (u32, u32) {
+        self.locate(self.pos)
+    }
+
+    /// Line and column (both from 1, the column in characters) of byte offset `pos`.
+    fn locate(&self, pos: usize) -> (u32, u32) {
+        let before = &self.text[..pos];
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+        let col = before[line_start..].chars().count() + 1;
+        (u32::try_from(line).unwrap_or(u32::MAX), u32::try_from(col).unwrap_or(u32::MAX))
     }
 
     /// Next token: `(`, `)`, or a run of other non-whitespace characters.
     fn next_token(&mut self) -> Option<Token<'a>> {
-        let rest = &self.text[self.pos..];
-        let mut chars = rest.chars();
-        loop {
-            let c = chars.next()?;
-            if !c.is_whitespace() {
-                break;
+        let (text, bytes) = (self.text, self.text.as_bytes());
+        // The length of the character at `i` (from 1), or `None` when it is whitespace.
+        let solid = |i: usize| match bytes[i] {
+            b if b < 0x80 => (!ascii_space(b)).then_some(1),
+            _ => text[i..].chars().next().filter(|c| !c.is_whitespace()).map(char::len_utf8),
+        };
+        let mut i = self.pos;
+        let first = loop {
+            if i >= bytes.len() {
+                self.pos = i;
+                return None;
             }
-            self.bump(c);
-        }
-        let (line, col, start) = (self.line, self.col, self.pos);
-        let first = self.text[start..].chars().next()?;
-        self.bump(first);
-        if first != '(' && first != ')' {
-            while let Some(c) = self.text[self.pos..].chars().next() {
-                if c.is_whitespace() || c == '(' || c == ')' {
-                    break;
+            match solid(i) {
+                Some(len) => break len,
+                None => i += text[i..].chars().next().map_or(1, char::len_utf8),
+            }
+        };
+        let start = i;
+        i += first;
+        if !matches!(bytes[start], b'(' | b')') {
+            while i < bytes.len() && !matches!(bytes[i], b'(' | b')') {
+                match solid(i) {
+                    Some(len) => i += len,
+                    None => break,
                 }
-                self.bump(c);
             }
         }
-        Some(Token { text: &self.text[start..self.pos], line, col })
+        self.pos = i;
+        Some(Token { text: &text[start..i], start })
     }
 }
 
@@ -472,7 +490,7 @@ impl<'a> Reader<'a, '_> {
     }
 
     fn at(&self, tok: &Token<'_>, kind: PrtErrorKind) -> PrtError {
-        self.err((tok.line, tok.col), kind)
+        self.err(self.lx.locate(tok.start), kind)
     }
 
     fn next(&mut self, expected: &'static str) -> Result<Token<'a>, PrtError> {
@@ -496,7 +514,7 @@ impl<'a> Reader<'a, '_> {
         let Ok(v) = u32::try_from(v) else {
             return Err(self.at(&tok, PrtErrorKind::CountTooLarge { what, count: v.max(0) as u64 }));
         };
-        Ok(((tok.line, tok.col), v))
+        Ok((self.lx.locate(tok.start), v))
     }
 
     /// A leaf or cluster number below `limit`.
@@ -717,6 +735,18 @@ mod tests {
         assert!(matches!(e.kind, PrtErrorKind::NotANumber { .. }), "{e}");
         let e = read_bytes(b"SLVL\x01\0\0\0\xff", "level.slvl").unwrap_err();
         assert!(matches!(e.kind, PrtErrorKind::BadHeader(_)), "{e}");
+    }
+
+    #[test]
+    fn unicode_whitespace_separates_and_columns_count_characters() {
+        // An em space and a no-break space separate tokens as ASCII spaces do.
+        let spaced = SMALL.replacen(' ', "\u{2003}", 3).replacen(' ', "\u{a0}", 2);
+        assert_eq!(read(&spaced, "w.prt"), read(SMALL, "w.prt"));
+        // Columns count characters, not bytes: `é` is two bytes, one column.
+        let e = err("PRT1\n2\n1\n3 0 1 (0 0 0) (é 0 0) (0 1 0)\n");
+        assert_eq!((e.line, e.col), (4, 16));
+        let e = err("PRT1\n2\n1\n3 0 1 (0\u{2003}0\u{2003}0) (x 0 0) (0 1 0)\n");
+        assert_eq!((e.line, e.col), (4, 16));
     }
 
     #[test]

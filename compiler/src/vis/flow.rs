@@ -19,9 +19,11 @@
 //! wholly behind one of the frame's separators (or its pass plane) are dropped from `might`, so a
 //! branch dies as soon as nothing it could still reach is new. On E1M1 this cuts the chains
 //! visited from 4.0 M to 0.93 M. Where `mightsee` is already tight (an open room, a ring of
-//! leaves round a pillar) the cull drops nothing and is pure cost: a flow whose first
-//! [`BEAM_TRIAL`] culls have dropped nothing culls no more (the cull only prunes, so skipping it
-//! keeps as much or more; the rule is the flow's own, so the result does not depend on threads).
+//! leaves round a pillar) the cull drops nothing and is pure cost: a flow whose first culls (its
+//! `trial`, [`BEAM_TRIAL`], or [`QUIET_TRIAL`] once the last [`QUIET_FLOWS`] flows folded dropped
+//! nothing, see [`trial_after`]) have dropped nothing culls no more. The cull only prunes, so
+//! skipping it keeps as much or more, and the trial depends on the batches folded before the
+//! flow only, so the result does not depend on threads.
 //!
 //! Seeds: clusters known visible from the source's cluster count as seen from the start: those
 //! joined to it by a certified line ([`super::certify`]), and those the finished flows of its
@@ -48,7 +50,7 @@ use super::MAX_FLOW_DEPTH;
 use super::certify;
 use super::graph::Graph;
 use super::poly::{
-    CAP, CLIP_EPSILON, Clip, Poly, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator,
+    CAP, CLIP_EPSILON, Clip, Poly, Sight, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator,
 };
 use super::seeds::Seeds;
 use sightline_formats::bits;
@@ -58,6 +60,27 @@ use sightline_formats::bits;
 /// instructions with the same chains and PVS; dm1 and dm2 visit 0.1–0.4 % more chains for the
 /// same PVS (8 would save pillar_300 a few % more, at 2 % more chains on dm1).
 pub const BEAM_TRIAL: u32 = 16;
+
+/// Flows folded in a row whose culls dropped nothing, after which flows start with the short
+/// trial [`QUIET_TRIAL`]: on a ring of leaves round a pillar (ericw-tools' compile, 300 sides)
+/// this saves 13 % of vis's instructions; dm1, dm2 and E1M1 keep every cull (their flows drop
+/// portals often enough to break every run of 32) and visit the same chains.
+pub const QUIET_FLOWS: usize = 32;
+
+/// The trial of a flow started after [`QUIET_FLOWS`] quiet flows: a flow whose first culls drop
+/// a portal still culls on, and breaks the run for the flows after it.
+pub const QUIET_TRIAL: u32 = 2;
+
+/// The beam-cull trial for a flow started after `quiet` folded flows in a row dropped nothing.
+pub fn trial_after(quiet: usize) -> u32 {
+    if quiet >= QUIET_FLOWS { QUIET_TRIAL } else { BEAM_TRIAL }
+}
+
+/// The run of quiet flows once a flow that `dropped` (or not) a portal by a cull is folded after
+/// a run of `quiet`.
+pub fn quiet_after(quiet: usize, dropped: bool) -> usize {
+    if dropped { 0 } else { quiet.saturating_add(1) }
+}
 
 /// Normals whose dot product is at most `-1 + this` are opposite: a line that entered through one
 /// cannot leave through the other.
@@ -97,11 +120,18 @@ struct Frame {
     paired: usize,
 }
 
+/// A thread's scratch space for clipping, reused from clip to clip.
+#[derive(Debug, Default)]
+struct Scratch {
+    tmp: Poly,
+    sight: Sight,
+}
+
 /// Per-thread flow state, reused from portal to portal (no allocation once frames exist).
 #[derive(Debug)]
 pub struct Flow {
     frames: Vec<Frame>,
-    tmp: Poly,
+    scratch: Scratch,
     /// Portals leading into a cluster already known visible from the base portal.
     vis: Vec<u64>,
     /// Clusters known visible from the base portal.
@@ -117,7 +147,7 @@ pub struct Flow {
     /// Beam culls made by this flow so far, and whether any of them dropped a portal.
     culls: u32,
     culled: bool,
-    /// [`BEAM_TRIAL`] (tests change it).
+    /// Culls the flow makes before it stops if none of them dropped a portal.
     beam_trial: u32,
 }
 
@@ -127,7 +157,7 @@ impl Flow {
     pub fn new(words: usize, clusters: usize, level: u8, seeding: bool) -> Self {
         Self {
             frames: Vec::new(),
-            tmp: Poly::default(),
+            scratch: Scratch::default(),
             vis: vec![0; words],
             seen: vec![0; bits::words(clusters)],
             words,
@@ -152,6 +182,11 @@ impl Flow {
             + 4 * (3 * MAX_FLOW_DEPTH as u128 + 2)
     }
 
+    /// Whether a beam cull of the last [`Flow::run`] dropped a portal.
+    pub fn dropped(&self) -> bool {
+        self.culled
+    }
+
     /// Cluster `c` is visible: every portal into it is covered.
     fn see(&mut self, g: &Graph, c: u32) {
         see(&mut self.seen, &mut self.vis, g, c);
@@ -168,18 +203,21 @@ impl Flow {
     }
 
     /// The portals visible through portal `base`; `test` holds per portal its final vis when done,
-    /// else its `mightsee` (`words` words per portal). Writes the result into `out`.
+    /// else its `mightsee` (`words` words per portal). Writes the result into `out`; the flow
+    /// makes `trial` beam culls before it stops culling if none of them dropped a portal (see
+    /// [`Flow::dropped`]).
     ///
     /// The clusters `seeds` knows visible from the cluster `base` leaves are marked seen from
     /// the start, so branches that could only find them are not explored. The row stays a
     /// superset of what `base` sees (it may also hold portals into clusters seen only through the
     /// cluster's other portals, which the cluster's row holds anyway). The seeds the run certifies
     /// are recorded in `seeds`.
-    pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, base: usize, out: &mut [u64]) {
+    pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, base: usize, trial: u32, out: &mut [u64]) {
         self.vis.fill(0);
         self.seen.fill(0);
         self.culls = 0;
         self.culled = false;
+        self.beam_trial = trial;
         let p = &g.portals[base];
         for c in bits::ones(seeds.row(p.owner as usize)) {
             self.see(g, c as u32);
@@ -292,7 +330,7 @@ impl Flow {
                 continue; // straight back out through the way in
             }
             // Target: in front of the source portal (quick sphere test first).
-            let tmp = &mut self.tmp;
+            let tmp = &mut self.scratch.tmp;
             next.pass.load(g.winding(p), p.plane.normal);
             let target = Sphere { center: p.center, radius: p.radius };
             if next.pass.clip_in(&target, &head.plane, CLIP_EPSILON, tmp) == Clip::Gone {
@@ -316,7 +354,7 @@ impl Flow {
                 if next.pass.clip_in(&target, &prev_plane, CLIP_EPSILON, tmp) == Clip::Gone {
                     continue;
                 }
-                if !clip_target(self.level, g.convex, prev, next, source_clip, &target, tmp) {
+                if !clip_target(self.level, g.convex, prev, next, source_clip, &target, &mut self.scratch) {
                     continue;
                 }
                 // Tests 3 and 4 narrow the source for the frame below: deferred until that frame
@@ -432,7 +470,8 @@ impl Flow {
         }
         if self.frames[d].narrow {
             self.frames[d].narrow = false;
-            if !narrow_source(self.level, g.convex, &mut self.frames[..=d], head, &mut self.tmp) {
+            let frames = &mut self.frames[..=d];
+            if !narrow_source(self.level, g.convex, frames, head, &mut self.scratch) {
                 return false;
             }
         }
@@ -525,8 +564,9 @@ fn clip_target(
     next: &mut Frame,
     source_clip: Clip,
     target: &Sphere,
-    tmp: &mut Poly,
+    scratch: &mut Scratch,
 ) -> bool {
+    let Scratch { tmp, sight } = scratch;
     if level == 0 {
         return true;
     }
@@ -541,6 +581,9 @@ fn clip_target(
         }
         return true;
     }
+    if sight.all_through(&next.pass, &prev.pass, &next.source) {
+        return true;
+    }
     if !clip_to_separators(&next.source, &prev.pass, false, convex, &mut next.pass, target, tmp) {
         return false;
     }
@@ -551,8 +594,12 @@ fn clip_target(
 /// the previous pass) and of (previous pass, its pass). Run lazily, when the frame first has a
 /// target to test; until then the portal that led to it already counts as visible, which can
 /// only keep more. Returns `false` when no source is left.
-fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, tmp: &mut Poly) -> bool {
+fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, scratch: &mut Scratch) -> bool {
     let [.., prev, cur] = frames else { return true };
+    let Scratch { tmp, sight } = scratch;
+    if sight.all_through(&cur.source, &prev.pass, &cur.pass) {
+        return true;
+    }
     if !clip_to_separators(&cur.pass, &prev.pass, false, convex, &mut cur.source, &head.bound, tmp) {
         return false;
     }
@@ -592,13 +639,26 @@ mod tests {
         for seeding in [false, true] {
             let mut flow = Flow::new(words, g.num_clusters(), 4, seeding);
             let mut out = vec![0u64; words];
-            flow.run(&g, &might, &seeds, 0, &mut out);
+            flow.run(&g, &might, &seeds, 0, BEAM_TRIAL, &mut out);
             // Every portal ahead is visible, though the flow stopped at MAX_FLOW_DEPTH frames.
             assert_eq!(out, might[..words], "seeding {seeding}");
             assert_eq!(bits::count(&out), u64::from(n - 2));
             assert_eq!(flow.frames.len(), MAX_FLOW_DEPTH + 1);
             assert_eq!(flow.chains, MAX_FLOW_DEPTH as u64 + 1);
         }
+    }
+
+    #[test]
+    fn the_trial_shortens_after_a_run_of_quiet_flows_and_a_drop_restores_it() {
+        let mut quiet = 0;
+        for k in 0..QUIET_FLOWS {
+            assert_eq!(trial_after(quiet), BEAM_TRIAL, "after {k} quiet flows");
+            quiet = quiet_after(quiet, false);
+        }
+        assert_eq!(trial_after(quiet), QUIET_TRIAL);
+        assert_eq!(trial_after(quiet_after(quiet, false)), QUIET_TRIAL);
+        assert_eq!(trial_after(quiet_after(quiet, true)), BEAM_TRIAL);
+        assert_eq!(quiet_after(usize::MAX, false), usize::MAX);
     }
 
     #[test]
@@ -609,16 +669,15 @@ mod tests {
         let might = base::mightsee(&g, words, 1, &|| {}).rows;
         let seeds = Seeds::new(g.num_clusters());
         let mut rows = Vec::new();
-        for trial in [BEAM_TRIAL, u32::MAX] {
+        for trial in [QUIET_TRIAL, BEAM_TRIAL, u32::MAX] {
             let mut flow = Flow::new(words, g.num_clusters(), 4, false);
-            flow.beam_trial = trial;
             let mut out = vec![0u64; words];
-            flow.run(&g, &might, &seeds, 0, &mut out);
-            assert!(!flow.culled, "nothing to drop in a straight corridor");
+            flow.run(&g, &might, &seeds, 0, trial, &mut out);
+            assert!(!flow.dropped(), "nothing to drop in a straight corridor");
             assert_eq!(flow.culls, trial.min(45), "trial {trial}: one cull per frame from 1 to 45");
             rows.push(out);
         }
-        assert_eq!(rows[0], rows[1]);
+        assert!(rows.iter().all(|r| *r == rows[0]));
         assert_eq!(bits::count(&rows[0]), 46);
     }
 }

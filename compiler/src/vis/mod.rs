@@ -718,6 +718,7 @@ fn flow_all(
     let mut seeds = seeds::Seeds::new(nc);
     let batch = flow_batch(prt, opts);
     let mut done = 0usize;
+    let mut quiet = 0usize;
     // With a state file, the log of every batch boundary: loaded and replayed when the file
     // exists (the rows and seeds the uninterrupted run had after those batches), then extended.
     let mut log = None;
@@ -732,7 +733,9 @@ fn flow_all(
         };
         log = Some(match state::load(path, &want)? {
             Some(st) => {
-                st.replay(&order, &mut test, seeds.known_mut()).map_err(|e| state::inconsistent(path, &e))?;
+                quiet = st
+                    .replay(&order, &mut test, seeds.known_mut())
+                    .map_err(|e| state::inconsistent(path, &e))?;
                 done = st.done as usize;
                 stats.chains = st.total_chains();
                 stats.resumed_portals = done;
@@ -742,7 +745,7 @@ fn flow_all(
         });
     }
     let run = Run { g, order: &order, words, n, batch, opts, progress };
-    let test = run.batches(Rows { test, seeds }, done, log, stats)?;
+    let test = run.batches(Rows { test, seeds, quiet }, done, log, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
@@ -756,6 +759,8 @@ struct Rows {
     test: Vec<u64>,
     /// Per cluster, the clusters known visible from it by a certified line ([`certify`]).
     seeds: seeds::Seeds,
+    /// Flows folded in a row whose beam culls dropped nothing ([`flow::quiet_after`]).
+    quiet: usize,
 }
 
 /// What the flow workers share for one run of [`flow_all`].
@@ -843,6 +848,8 @@ impl Cursor {
 struct Slot {
     row: Vec<u64>,
     chains: u64,
+    /// A beam cull of the flow dropped a portal.
+    dropped: bool,
 }
 
 /// Bookkeeping done at batch boundaries by the worker that finishes a batch.
@@ -921,14 +928,18 @@ impl Run<'_> {
             if self.opts.panic_at == Some(i) {
                 panic!("injected panic at flow position {i}");
             }
-            {
-                let rows = test.read().unwrap_or_else(PoisonError::into_inner);
-                f.run(self.g, &rows.test, &rows.seeds, self.order[i], &mut out);
-            }
             let batch_start = start + (i - start) / self.batch * self.batch;
             let batch_end = (batch_start + self.batch).min(self.n);
-            *slots[i - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
-                Slot { row: out, chains: f.chains };
+            // A batch's portals are handed out from its end: `order` puts the largest `mightsee`
+            // (the longest flows) there, so the batch's last flows to start are its shortest.
+            let pos = batch_end - 1 - (i - batch_start);
+            {
+                let rows = test.read().unwrap_or_else(PoisonError::into_inner);
+                let trial = flow::trial_after(rows.quiet);
+                f.run(self.g, &rows.test, &rows.seeds, self.order[pos], trial, &mut out);
+            }
+            *slots[pos - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
+                Slot { row: out, chains: f.chains, dropped: f.dropped() };
             let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
             (self.progress)(VisProgress { phase: VisPhase::Flow, done: d, total: self.n });
             if cursor.finished.fetch_add(1, Ordering::AcqRel) + 1 == batch_end - batch_start {
@@ -951,7 +962,7 @@ impl Run<'_> {
         let mut guard = boundary.lock().unwrap_or_else(PoisonError::into_inner);
         let b = &mut *guard;
         let mut rows = test.write().unwrap_or_else(PoisonError::into_inner);
-        let Rows { test: rows, seeds } = &mut *rows;
+        let Rows { test: rows, seeds, quiet } = &mut *rows;
         // The batch's seed pairs, new at this boundary; the log gives them to its last portal.
         let mut added = Vec::new();
         match b.log {
@@ -961,12 +972,13 @@ impl Run<'_> {
         for (pos, &p) in self.order[batch_start..batch_end].iter().enumerate() {
             let slot = slots[pos].lock().unwrap_or_else(PoisonError::into_inner);
             symmetry::replace_row(rows, words, p, &slot.row);
+            *quiet = flow::quiet_after(*quiet, slot.dropped);
             b.stats.chains += slot.chains;
             // The log replays exactly this: the row as folded, and the pairs that were new.
             if let Some(log) = &mut b.log {
                 let pairs =
                     if pos + 1 == batch_end - batch_start { std::mem::take(&mut added) } else { Vec::new() };
-                log.push(&rows[p * words..(p + 1) * words], slot.chains, pairs);
+                log.push(&rows[p * words..(p + 1) * words], slot.chains, slot.dropped, pairs);
             }
         }
         let done = batch_end;

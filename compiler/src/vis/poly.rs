@@ -274,6 +274,75 @@ pub fn clip_to_separators(
     alive
 }
 
+/// Shows, cheaply and only sometimes, that clipping a winding `s` by the separating planes of two
+/// windings `a` and `b` would keep all of it; reused from call to call (no allocation once warm).
+///
+/// If a point `v` of `s` lies on a line that runs from a point `x` of `a` through a point `y`
+/// of `b` on to `v` (in that order), every plane with `a` behind and `b` in front has `v` in
+/// front, since the distance along the line is linear: so `v` is kept by every separator of
+/// ([`for_each_separator`]) `a` and `b`, in either order, oriented toward `b`. The lines tried
+/// per point are the one through `b`'s vertex average, and the one toward `a`'s: the average of a
+/// convex winding lies in it. A `false` answer says nothing (the clip then decides); a wrong
+/// `true` could only keep more than the clip would, which rounds toward visible anyway.
+#[derive(Debug, Default)]
+pub struct Sight {
+    /// Edge lines of `a` and of `b`: `[m.x, m.y, m.z, m · p]` per edge from `p`, with `m` the
+    /// normal cross the edge, pointing into the winding (counter-clockwise about its normal).
+    a: Vec<[f64; 4]>,
+    b: Vec<[f64; 4]>,
+}
+
+impl Sight {
+    /// True when every point of `s` is shown to lie on a line from `a` through `b` (see
+    /// [`Sight`]).
+    pub fn all_through(&mut self, s: &Poly, b: &Poly, a: &Poly) -> bool {
+        if a.n < 3 || b.n < 3 {
+            return false;
+        }
+        let am = a.p[..a.n].iter().copied().sum::<DVec3>() / a.n as f64;
+        let bm = b.p[..b.n].iter().copied().sum::<DVec3>() / b.n as f64;
+        let (a_dist, b_dist) = (a.normal.dot(a.p[0]), b.normal.dot(b.p[0]));
+        self.a.clear();
+        self.b.clear();
+        for &v in &s.p[..s.n] {
+            // From `v` through `b`'s middle on to `a`, then from `v` toward `a`'s middle across `b`.
+            let via_b = meet(v, bm, a.normal, a_dist)
+                .is_some_and(|t| t >= 1.0 && inside(&mut self.a, a, v + (bm - v) * t));
+            if !via_b
+                && !meet(v, am, b.normal, b_dist)
+                    .is_some_and(|t| t <= 1.0 && inside(&mut self.b, b, v + (am - v) * t))
+            {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// The parameter `t > 0` at which the line `v + (m - v) t` meets the plane (`normal`, `dist`);
+/// `None` when it meets it at `t <= 0` or never.
+#[inline]
+fn meet(v: DVec3, m: DVec3, normal: DVec3, dist: f64) -> Option<f64> {
+    let t = (dist - normal.dot(v)) / normal.dot(m - v);
+    (t > 0.0 && t.is_finite()).then_some(t)
+}
+
+/// `x`, a point of `w`'s plane, lies within `w` or on its edges; `lines` caches `w`'s edge lines
+/// (filled on first use, see [`Sight`]).
+#[inline]
+fn inside(lines: &mut Vec<[f64; 4]>, w: &Poly, x: DVec3) -> bool {
+    if lines.is_empty() {
+        let pts = &w.p[..w.n];
+        let mut p = pts[pts.len() - 1];
+        for &q in pts {
+            let m = w.normal.cross(q - p);
+            lines.push([m.x, m.y, m.z, m.dot(p)]);
+            p = q;
+        }
+    }
+    lines.iter().all(|&[mx, my, mz, off]| mx * x.x + my * x.y + mz * x.z >= off)
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
@@ -355,7 +424,62 @@ mod tests {
         assert!(!clip_to_separators(&a, &b, false, false, &mut far, &HUGE, &mut tmp));
     }
 
+    #[test]
+    fn sight_through_aligned_openings_and_not_past_them() {
+        let mut sight = Sight::default();
+        // A 64² source behind a 64² pass behind a 64² target, all aligned: every point of the
+        // target sees the source through the pass (and the other way round).
+        let (a, b, s) = (square(0.0, 64.0), square(64.0, 64.0), square(128.0, 64.0));
+        assert!(sight.all_through(&s, &b, &a));
+        assert!(sight.all_through(&a, &b, &s));
+        // A target twice as wide: its far corners see no part of the source through the pass.
+        let wide = poly(&[
+            DVec3::new(128.0, -64.0, -64.0),
+            DVec3::new(128.0, 128.0, -64.0),
+            DVec3::new(128.0, 128.0, 128.0),
+            DVec3::new(128.0, -64.0, 128.0),
+        ]);
+        assert!(!sight.all_through(&wide, &b, &a));
+        // Degenerate windings show nothing.
+        let mut empty = square(64.0, 64.0);
+        empty.n = 0;
+        assert!(!sight.all_through(&s, &empty, &a));
+    }
+
     proptest! {
+        /// Whenever [`Sight::all_through`] says a winding lies on lines from `a` through `b`,
+        /// clipping it by every separator of `a` and `b` (both orders, oriented toward `b`)
+        /// keeps all of it, so the clip it stands in for may be skipped.
+        #[test]
+        fn sight_only_skips_clips_that_keep_everything(
+            ys in prop::collection::vec(-50.0f64..50.0, 2),
+            near in prop::collection::vec(-25.0f64..25.0, 4),
+            gaps in prop::collection::vec(0.5f64..100.0, 2),
+            size in 1.0f64..60.0,
+        ) {
+            let mk = |x: f64, y: f64, z: f64, w: f64| {
+                poly(&[DVec3::new(x, y, z), DVec3::new(x, y + w, z), DVec3::new(x, y + w, z + w), DVec3::new(x, y, z + w)])
+            };
+            // The windings near each other, so that a fair share of the cases see through.
+            let a = mk(0.0, ys[0] + near[2], ys[1] + near[3], 40.0);
+            let b = mk(gaps[0], ys[0], ys[1], 30.0);
+            let s = mk(gaps[0] + gaps[1], ys[0] + near[0], ys[1] + near[1], size);
+            let mut sight = Sight::default();
+            if sight.all_through(&s, &b, &a) {
+                for (x, y, flip) in [(&a, &b, false), (&b, &a, true)] {
+                    let mut kept = s.clone();
+                    let mut tmp = Poly::default();
+                    let bound = Sphere { center: DVec3::ZERO, radius: 1e9 };
+                    let mut clips = Vec::new();
+                    for_each_separator(x, y, flip, true, |plane| {
+                        clips.push(kept.clip_in(&bound, plane, CLIP_EPSILON, &mut tmp));
+                        true
+                    });
+                    prop_assert!(clips.iter().all(|&c| c == Clip::Whole), "{clips:?}");
+                }
+            }
+        }
+
         /// Any segment from a point of `a` through a point of `b` continues, beyond `b`, into the
         /// kept side of every separating plane: clipping never removes a point a ray reaches.
         #[test]

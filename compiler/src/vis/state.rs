@@ -7,10 +7,11 @@
 //!
 //! What is stored is the *log* of the batch boundaries, not a snapshot of the matrices: for each
 //! finished portal (in processing order) its row as it was folded into the matrix, the chains its
-//! flow visited and, on a batch's last portal, the seed pairs ([`super::seeds`]) the batch added.
-//! A resume replays that log from the `mightsee` rows exactly as the batch boundaries did
-//! ([`State::replay`]), so the rows and the seeds a resumed run starts from are exactly those of
-//! the uninterrupted run after the same batches, and any prefix of whole batches is itself a
+//! flow visited, whether a beam cull of it dropped a portal and, on a batch's last portal, the
+//! seed pairs ([`super::seeds`]) the batch added. A resume replays that log from the `mightsee`
+//! rows exactly as the batch boundaries did ([`State::replay`]), so the rows, the seeds and the
+//! run of quiet flows ([`super::flow::quiet_after`]) a resumed run starts from are exactly those
+//! of the uninterrupted run after the same batches, and any prefix of whole batches is itself a
 //! valid state. (A snapshot cannot be cut back: its early rows were tightened, and its seeds
 //! added, by portals after the cut.) `done` must be a whole number of batches: the resumed run
 //! batches the rest from there, so any other count would batch it differently from the
@@ -31,13 +32,14 @@ use sightline_formats::atomic::write_file_atomic;
 use sightline_formats::bits;
 
 use super::VisError;
-use super::symmetry;
+use super::{flow, symmetry};
 
-/// Identifies the state format and the flow's rules ("SLVISST4": the log of batch boundaries
-/// with a checksum, written by flows that also record the clusters they saw as seeds). A run
-/// under other rules would continue a state differently from its own uninterrupted run, so a
-/// change of what the flow records takes a new tag.
-const MAGIC: u64 = 0x534c_5649_5353_5434;
+/// Identifies the state format and the flow's rules ("SLVISST5": the log of batch boundaries
+/// with a checksum, written by flows that also record the clusters they saw as seeds, and whose
+/// beam-cull trial follows the flows folded before them). A run under other rules would continue
+/// a state differently from its own uninterrupted run, so a change of what the flow records takes
+/// a new tag.
+const MAGIC: u64 = 0x534c_5649_5353_5435;
 
 /// Bytes of the checksum trailer.
 const TRAILER: usize = 8;
@@ -62,6 +64,8 @@ pub struct State {
     pub rows: Vec<u64>,
     /// Per finished portal, the portal chains its flow visited.
     pub chains: Vec<u64>,
+    /// Per finished portal, whether a beam cull of its flow dropped a portal.
+    pub dropped: Vec<bool>,
     /// Per finished portal, how many of `pairs` it added: a batch sets its pairs together at its
     /// boundary, and the log gives them to the batch's last portal (the others add none).
     pub added: Vec<u32>,
@@ -82,15 +86,24 @@ impl State {
             done: 0,
             rows: Vec::new(),
             chains: Vec::new(),
+            dropped: Vec::new(),
             added: Vec::new(),
             pairs: Vec::new(),
         }
     }
 
-    /// Record one finished portal: its folded row, its chains and the seed pairs it added.
-    pub fn push(&mut self, row: &[u64], chains: u64, pairs: impl IntoIterator<Item = (u32, u32)>) {
+    /// Record one finished portal: its folded row, its chains, whether a beam cull of it dropped
+    /// a portal, and the seed pairs it added.
+    pub fn push(
+        &mut self,
+        row: &[u64],
+        chains: u64,
+        dropped: bool,
+        pairs: impl IntoIterator<Item = (u32, u32)>,
+    ) {
         self.rows.extend_from_slice(row);
         self.chains.push(chains);
+        self.dropped.push(dropped);
         let before = self.pairs.len();
         self.pairs.extend(pairs.into_iter().map(|(a, b)| [a, b]));
         self.added.push((self.pairs.len() - before) as u32);
@@ -103,6 +116,7 @@ impl State {
         let keep: u32 = self.added[..done].iter().sum();
         self.rows.truncate(done * self.words as usize);
         self.chains.truncate(done);
+        self.dropped.truncate(done);
         self.added.truncate(done);
         self.pairs.truncate(keep as usize);
         self.done = done as u64;
@@ -116,13 +130,15 @@ impl State {
     /// Rebuild the matrix and the seeds the batch boundaries had after the first `done` portals of
     /// `order`: `test` must hold the `mightsee` rows made consistent by
     /// [`symmetry::tighten_all`], `seeds` zeros (`bits::words(clusters)` words per cluster).
-    /// Fails, with the reason, when the log is not one the boundaries could have written.
-    pub fn replay(&self, order: &[usize], test: &mut [u64], seeds: &mut [u64]) -> Result<(), String> {
+    /// Returns the run of quiet flows at that point ([`flow::quiet_after`]). Fails, with the
+    /// reason, when the log is not one the boundaries could have written.
+    pub fn replay(&self, order: &[usize], test: &mut [u64], seeds: &mut [u64]) -> Result<usize, String> {
         let words = self.words as usize;
         let n = self.portals as usize;
         let nc = self.clusters as usize;
         let cw = bits::words(nc);
         let mut pairs = self.pairs.iter();
+        let mut quiet = 0;
         for (k, &p) in order[..self.done as usize].iter().enumerate() {
             let row = &self.rows[k * words..(k + 1) * words];
             if let Some(w) = (0..words).find(|&w| row[w] & !bits::valid_mask(w, n) != 0) {
@@ -133,6 +149,7 @@ impl State {
                 return Err(format!("finished portal {k} has a row its flow could not have produced"));
             }
             symmetry::replace_row(test, words, p, row);
+            quiet = flow::quiet_after(quiet, self.dropped[k]);
             for _ in 0..self.added[k] {
                 let Some(&[from, to]) = pairs.next() else {
                     return Err("fewer seed pairs than counted".to_string());
@@ -151,18 +168,18 @@ impl State {
         if pairs.next().is_some() {
             return Err("more seed pairs than counted".to_string());
         }
-        Ok(())
+        Ok(quiet)
     }
 }
 
 /// An upper bound of the bytes a state log takes for `portals` one-way portals of `words` words
-/// and `clusters` clusters: every portal finished (its row, chains and pair count) and every
+/// and `clusters` clusters: every portal finished (its row, chains, cull flag and pair count) and every
 /// seed pair recorded (each pair is new when set, so at most `clusters²` of 8 bytes, 64 times the
 /// seed matrix), counted twice: saving encodes the whole log into one buffer beside it, and
 /// loading holds the file's bytes beside the decoded log.
 pub fn bytes_bound(portals: u128, words: u128, clusters: u128) -> u128 {
-    let per_portal = 8 * words + 8 + 4;
-    let header = 8 * 8 + 4 * 8 + TRAILER as u128;
+    let per_portal = 8 * words + 8 + 1 + 4;
+    let header = 8 * 8 + 5 * 8 + TRAILER as u128;
     2 * (portals * per_portal + 8 * clusters * clusters + header)
 }
 
@@ -285,6 +302,7 @@ pub fn load(path: &Path, want: &Expect) -> Result<Option<State>, VisError> {
         Some(format!("{done} finished portals is not a whole number of batches of {}", want.batch))
     } else if state.rows.len() as u64 != done * state.words
         || state.chains.len() as u64 != done
+        || state.dropped.len() as u64 != done
         || state.added.len() as u64 != done
     {
         Some(format!("the per-portal records do not match {done} finished portals"))
@@ -317,8 +335,8 @@ mod tests {
 
     fn sample() -> State {
         let mut st = State::new(42, 10, 1, 5);
-        st.push(&[5], 3, [(0, 1)]);
-        st.push(&[7], 4, [(1, 2), (2, 0)]);
+        st.push(&[5], 3, true, [(0, 1)]);
+        st.push(&[7], 4, false, [(1, 2), (2, 0)]);
         st
     }
 
@@ -374,6 +392,9 @@ mod tests {
             |s: &mut State| {
                 s.chains.pop();
             },
+            |s: &mut State| {
+                s.dropped.pop();
+            },
             |s: &mut State| s.added[0] = 2,
             |s: &mut State| {
                 s.pairs.pop();
@@ -399,11 +420,14 @@ mod tests {
         let all: Vec<(u32, u32)> = (0..clusters).flat_map(|a| (0..clusters).map(move |b| (a, b))).collect();
         for k in 0..portals {
             let pairs = if k + 1 == portals { all.clone() } else { Vec::new() };
-            st.push(&vec![u64::MAX; words], u64::MAX, pairs);
+            st.push(&vec![u64::MAX; words], u64::MAX, true, pairs);
         }
         let encoded = encode(&st).expect("encode").len() as u128;
-        let in_memory =
-            (st.rows.len() * 8 + st.chains.len() * 8 + st.added.len() * 4 + st.pairs.len() * 8) as u128;
+        let in_memory = (st.rows.len() * 8
+            + st.chains.len() * 8
+            + st.dropped.len()
+            + st.added.len() * 4
+            + st.pairs.len() * 8) as u128;
         let bound = bytes_bound(portals as u128, words as u128, u128::from(clusters));
         assert!(bound >= encoded + in_memory, "bound {bound} < {encoded} + {in_memory}");
         assert!(bound <= 2 * (encoded + in_memory), "bound {bound} far above {encoded} + {in_memory}");
@@ -415,10 +439,11 @@ mod tests {
         let order = [0, 1, 2, 3];
         let fresh = || (vec![0b1111u64; 4], vec![0u64; 2]);
         let mut st = State::new(1, 4, 1, 2);
-        st.push(&[0b1100], 1, [(0, 1)]);
-        st.push(&[0b1000], 1, [(1, 0)]);
+        st.push(&[0b1100], 1, true, [(0, 1)]);
+        st.push(&[0b1000], 1, false, [(1, 0)]);
         let (mut test, mut seeds) = fresh();
-        st.replay(&order, &mut test, &mut seeds).expect("a log a run could write");
+        let quiet = st.replay(&order, &mut test, &mut seeds).expect("a log a run could write");
+        assert_eq!(quiet, 1, "one quiet flow since the last that dropped a portal");
         assert_eq!(seeds, vec![0b10, 0b01]);
         assert_eq!(&test[..2], &[0b1100, 0b1000]);
         let bad: [fn(&mut State); 4] = [

@@ -21,7 +21,7 @@ use super::{Lexer, MAX_LEAVES, PortalFile, PrtError, PrtErrorKind, PrtFormat, Re
 /// after the two header counts stands alone on its line and is an integer, else
 /// [`PrtFormat::VhltFixed`].
 pub(super) fn sniff(text: &str) -> PrtFormat {
-    let mut lx = Lexer { text, pos: 0, line: 1, col: 1 };
+    let mut lx = Lexer::new(text);
     has_count_lines(&mut lx)
 }
 
@@ -29,7 +29,7 @@ pub(super) fn sniff(text: &str) -> PrtFormat {
 fn has_count_lines(lx: &mut Lexer<'_>) -> PrtFormat {
     let _ = (lx.next_token(), lx.next_token());
     let Some(third) = lx.next_token() else { return PrtFormat::VhltFixed };
-    let alone = lx.next_token().is_none_or(|next| next.line != third.line);
+    let alone = lx.next_token().is_none_or(|next| lx.text[third.start..next.start].contains('\n'));
     if alone && third.text.parse::<i64>().is_ok() { PrtFormat::Vhlt } else { PrtFormat::VhltFixed }
 }
 
