@@ -420,11 +420,34 @@ struct Lexer<'a> {
     pos: usize,
 }
 
-/// ASCII whitespace as `char::is_whitespace` has it (tab, line feed, vertical tab, form feed,
-/// carriage return, space).
-fn ascii_space(b: u8) -> bool {
-    matches!(b, b' ' | b'\t'..=b'\r')
+/// What a byte is to the lexer: part of a token, ASCII whitespace (as `char::is_whitespace` has
+/// it: tab, line feed, vertical tab, form feed, carriage return, space), a parenthesis, or the
+/// start or continuation of a character beyond ASCII (decided by decoding it).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Class {
+    Solid,
+    Space,
+    Paren,
+    Wide,
 }
+
+const CLASSES: [Class; 256] = {
+    let mut t = [Class::Solid; 256];
+    let mut b = 0x80;
+    while b < 256 {
+        t[b] = Class::Wide;
+        b += 1;
+    }
+    t[b' ' as usize] = Class::Space;
+    let mut b = b'\t';
+    while b <= b'\r' {
+        t[b as usize] = Class::Space;
+        b += 1;
+    }
+    t[b'(' as usize] = Class::Paren;
+    t[b')' as usize] = Class::Paren;
+    t
+};
 
 impl<'a> Lexer<'a> {
     fn new(text: &'a str) -> Self {
@@ -448,29 +471,32 @@ impl<'a> Lexer<'a> {
     /// Next token: `(`, `)`, or a run of other non-whitespace characters.
     fn next_token(&mut self) -> Option<Token<'a>> {
         let (text, bytes) = (self.text, self.text.as_bytes());
-        // The length of the character at `i` (from 1), or `None` when it is whitespace.
-        let solid = |i: usize| match bytes[i] {
-            b if b < 0x80 => (!ascii_space(b)).then_some(1),
-            _ => text[i..].chars().next().filter(|c| !c.is_whitespace()).map(char::len_utf8),
-        };
+        // The length of the character beyond ASCII at `i`, and whether it is whitespace.
+        let wide =
+            |i: usize| text[i..].chars().next().map_or((1, false), |c| (c.len_utf8(), c.is_whitespace()));
         let mut i = self.pos;
-        let first = loop {
-            if i >= bytes.len() {
-                self.pos = i;
-                return None;
-            }
-            match solid(i) {
-                Some(len) => break len,
-                None => i += text[i..].chars().next().map_or(1, char::len_utf8),
+        let start = loop {
+            let &b = bytes.get(i)?;
+            match CLASSES[b as usize] {
+                Class::Space => i += 1,
+                Class::Wide => match wide(i) {
+                    (len, true) => i += len,
+                    _ => break i,
+                },
+                _ => break i,
             }
         };
-        let start = i;
-        i += first;
-        if !matches!(bytes[start], b'(' | b')') {
-            while i < bytes.len() && !matches!(bytes[i], b'(' | b')') {
-                match solid(i) {
-                    Some(len) => i += len,
-                    None => break,
+        if CLASSES[bytes[start] as usize] == Class::Paren {
+            i += 1;
+        } else {
+            while let Some(&b) = bytes.get(i) {
+                match CLASSES[b as usize] {
+                    Class::Solid => i += 1,
+                    Class::Wide => match wide(i) {
+                        (len, false) => i += len,
+                        _ => break,
+                    },
+                    _ => break,
                 }
             }
         }

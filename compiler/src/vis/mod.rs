@@ -34,8 +34,8 @@
 //! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
 //!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
 //! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches
-//!   ([`flow_batch`]: [`FLOW_BATCH`], or [`SMALL_FLOW_BATCH`] for an input small enough to run
-//!   on one thread); a portal uses the final rows and seeds of portals from earlier batches only
+//!   ([`flow_batch`]: from 4 portals for the smallest inputs to [`FLOW_BATCH`] for the
+//!   largest); a portal uses the final rows and seeds of portals from earlier batches only
 //!   (in place of their `mightsee`), so the output is the same for any thread count and any
 //!   timing. (Batches of one would let every portal use all earlier results, as the reference's
 //!   single thread does: on dm1 9 % fewer chains than batches of 48, on small inputs a fifth.)
@@ -77,18 +77,24 @@ use sightline_formats::prt::PortalFile;
 pub use base::COPLANAR_EPSILON;
 pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 
-/// Portals per deterministic flow batch (a portal sees the results of earlier batches only), for
-/// an input estimated at [`SERIAL_WORK`] or more: such runs take every core, and a batch has to
-/// hold enough flows to keep them busy until its longest flow ends.
+/// Portals per deterministic flow batch (a portal sees the results of earlier batches only) for
+/// an input estimated at `100 ×` [`SERIAL_WORK`] or more: long runs on every core, whose batches
+/// have to hold enough flows to keep the cores busy until a batch's longest flow ends.
 pub const FLOW_BATCH: usize = 48;
 
-/// Portals per flow batch for an input estimated below [`SERIAL_WORK`], which takes one thread
-/// unless told otherwise: the sooner a flow's rows and seeds reach later flows, the fewer chains
-/// they visit. Against batches of [`FLOW_BATCH`] on ericw-tools' compiles of the generated maps
-/// (one thread, instructions): 2 × 2 × 1 rooms −21 %, 4 × 4 × 1 rooms −18 %, the 100-sided
-/// pillar about −25 %, the same PVS; batches of one save 1–2 % more, but leave a second thread
-/// (`--threads 2`) with nothing to do but wait at every portal.
-pub const SMALL_FLOW_BATCH: usize = 4;
+/// Portals per flow batch below that, by [`work_estimate`]: the first `(below, batch)` whose
+/// bound is above the estimate. The sooner a flow's rows and seeds reach later flows, the fewer
+/// chains they visit, but every batch boundary waits for the batch's longest flow, so smaller
+/// inputs (shorter, more even flows) take smaller batches:
+/// - below [`SERIAL_WORK`] (one thread unless told otherwise), 4: against batches of 48 on
+///   ericw-tools' compiles of the generated maps (one thread, instructions), 2 × 2 × 1 rooms
+///   −21 %, 4 × 4 × 1 rooms −18 %, the 100-sided pillar about −25 %, the same PVS (batches of
+///   one save 1–2 % more, but leave a second thread nothing to do but wait at every portal);
+/// - up to ten times that, 8, and up to a hundred times, 16: on two threads against 48, the
+///   4 × 4 × 2 rooms −6 % CPU and −8 % wall time, dm1 −8 % and −5 %, the 6 × 6 × 3 rooms −3 %,
+///   LibreQuake's lqdm1 −2 % (E1M1, above, takes 6–9 % more CPU with batches of 8 to 32).
+pub const FLOW_BATCHES: [(u64, usize); 3] =
+    [(SERIAL_WORK, 4), (10 * SERIAL_WORK, 8), (100 * SERIAL_WORK, 16)];
 
 /// Below this [`work_estimate`] (in portal tests), a run given no thread count ([`VisOptions::threads`]
 /// 0) takes one thread: such a run lasts milliseconds, and starting threads and waiting at batch
@@ -99,15 +105,16 @@ pub const SMALL_FLOW_BATCH: usize = 4;
 pub const SERIAL_WORK: u64 = 20_000_000;
 
 /// Portals per flow batch for a run of `prt` (the input the flow reads, after any merging) with
-/// `opts`: [`SMALL_FLOW_BATCH`] below [`SERIAL_WORK`], else [`FLOW_BATCH`]. It depends on the
-/// input alone, never on the thread count, so every thread count gives the same result.
+/// `opts`: from [`FLOW_BATCHES`] by its [`work_estimate`], else [`FLOW_BATCH`]. It depends on
+/// the input alone, never on the thread count, so every thread count gives the same result.
 pub fn flow_batch(prt: &PortalFile, opts: &VisOptions) -> usize {
     batch(Counts::of(prt), opts)
 }
 
 /// [`flow_batch`] from the counts.
 fn batch(counts: Counts, opts: &VisOptions) -> usize {
-    if work(counts, opts) < SERIAL_WORK { SMALL_FLOW_BATCH } else { FLOW_BATCH }
+    let work = work(counts, opts);
+    FLOW_BATCHES.iter().find(|&&(below, _)| work < below).map_or(FLOW_BATCH, |&(_, batch)| batch)
 }
 
 /// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
