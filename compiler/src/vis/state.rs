@@ -149,7 +149,10 @@ impl State {
                 return Err(format!("finished portal {k} has a row its flow could not have produced"));
             }
             symmetry::replace_row(test, words, p, row);
-            quiet = flow::quiet_after(quiet, self.dropped[k]);
+            let Some(&dropped) = self.dropped.get(k) else {
+                return Err(format!("no cull record for finished portal {k}"));
+            };
+            quiet = flow::quiet_after(quiet, dropped);
             for _ in 0..self.added[k] {
                 let Some(&[from, to]) = pairs.next() else {
                     return Err("fewer seed pairs than counted".to_string());
@@ -446,11 +449,14 @@ mod tests {
         assert_eq!(quiet, 1, "one quiet flow since the last that dropped a portal");
         assert_eq!(seeds, vec![0b10, 0b01]);
         assert_eq!(&test[..2], &[0b1100, 0b1000]);
-        let bad: [fn(&mut State); 4] = [
+        let bad: [fn(&mut State); 5] = [
             |s| s.rows[0] |= 1 << 4, // a padding bit
             |s| s.rows[1] = 0b0010,  // a bit portal 0's boundary cleared from row 1
             |s| s.pairs[1] = [0, 1], // a pair set twice
             |s| s.pairs[0] = [2, 0], // a cluster out of range
+            |s| {
+                s.dropped.pop(); // a finished portal without its cull record
+            },
         ];
         for (i, tamper) in bad.iter().enumerate() {
             let mut b = st.clone();
