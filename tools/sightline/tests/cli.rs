@@ -541,11 +541,11 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
-/// Tampered copies of a vis state (`SLVISST4`: bincode with fixed-width little-endian integers —
+/// Tampered copies of a vis state (`SLVISST5`: bincode with fixed-width little-endian integers —
 /// magic, input hash, portals, words, clusters, done, then length-prefixed rows (u64), chains
-/// (u64), added (u32) and pairs (2 × u32) — and an FNV-1a trailer): a flipped byte, and, with the
-/// checksum made right, a padding bit set in each finished row's last word and a seed pair out of
-/// range.
+/// (u64), cull flags (one byte each), added (u32) and pairs (2 × u32) — and an FNV-1a trailer):
+/// a flipped byte, and, with the checksum made right, a padding bit set in each finished row's
+/// last word, a cull flag that is neither 0 nor 1, and a seed pair out of range.
 fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
     let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
     let resum = |mut b: Vec<u8>| {
@@ -554,7 +554,7 @@ fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
         b[n..].copy_from_slice(&sum.to_le_bytes());
         b
     };
-    assert_eq!(&bytes[..8], &0x534c_5649_5353_5434u64.to_le_bytes(), "a SLVISST4 state");
+    assert_eq!(&bytes[..8], &0x534c_5649_5353_5435u64.to_le_bytes(), "a SLVISST5 state");
     let (portals, words, done) = (u64_at(bytes, 16), u64_at(bytes, 24) as usize, u64_at(bytes, 40) as usize);
     assert!(done > 0 && portals % 64 != 0, "{done} finished portals; {portals} leave padding bits");
     let mut out = Vec::new();
@@ -569,8 +569,13 @@ fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
         out.push((format!("a padding bit in finished row {k}"), resum(b)));
     }
     let chains_len_at = rows_at + done * words * 8;
-    let added_len_at = chains_len_at + 8 + done * 8;
+    let dropped_len_at = chains_len_at + 8 + done * 8;
+    let added_len_at = dropped_len_at + 8 + done;
     let pairs_len_at = added_len_at + 8 + done * 4;
+    assert_eq!(u64_at(bytes, dropped_len_at), done as u64, "one cull flag per finished portal");
+    let mut b = bytes.to_vec();
+    b[dropped_len_at + 8] = 2;
+    out.push(("a cull flag of 2".to_string(), resum(b)));
     if u64_at(bytes, pairs_len_at) > 0 {
         let mut b = bytes.to_vec();
         b[pairs_len_at + 8..pairs_len_at + 12].copy_from_slice(&u32::MAX.to_le_bytes());
