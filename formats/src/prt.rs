@@ -476,7 +476,11 @@ impl<'a> Lexer<'a> {
             |i: usize| text[i..].chars().next().map_or((1, false), |c| (c.len_utf8(), c.is_whitespace()));
         let mut i = self.pos;
         let start = loop {
-            let &b = bytes.get(i)?;
+            let Some(&b) = bytes.get(i) else {
+                // At the end: positions of an error name the end of the text.
+                self.pos = i;
+                return None;
+            };
             match CLASSES[b as usize] {
                 Class::Space => i += 1,
                 Class::Wide => match wide(i) {
@@ -761,6 +765,13 @@ mod tests {
         assert!(matches!(e.kind, PrtErrorKind::NotANumber { .. }), "{e}");
         let e = read_bytes(b"SLVL\x01\0\0\0\xff", "level.slvl").unwrap_err();
         assert!(matches!(e.kind, PrtErrorKind::BadHeader(_)), "{e}");
+    }
+
+    #[test]
+    fn a_missing_token_is_located_at_the_end_of_the_text() {
+        let e = err("PRT1\n2\n1\n3 0 1 (0 0 0) (1 0 0)\n\n");
+        assert!(matches!(e.kind, PrtErrorKind::UnexpectedEof(_)), "{e}");
+        assert_eq!((e.line, e.col), (6, 1));
     }
 
     #[test]

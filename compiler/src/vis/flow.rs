@@ -12,8 +12,9 @@
 //! by separators (source edge, pass vertex); 2 also (pass edge, source vertex); 3 the source by
 //! separators (target edge, pass vertex); 4 also (pass edge, target vertex). Separators of an
 //! unchanged (source, pass) pair are computed once per frame and reused for every target of the
-//! frame; tests 3 and 4 run only when the frame below has a target to test. All clips round toward
-//! visible (see [`super::poly`]).
+//! frame; tests 3 and 4 run only when the frame below has a target to test. A clip that a line
+//! test shows would keep its winding whole is skipped ([`Sight`]). All clips round toward visible
+//! (see [`super::poly`]).
 //!
 //! Beam culling: on entering a frame that still has uncovered portals in `might`, those lying
 //! wholly behind one of the frame's separators (or its pass plane) are dropped from `might`, so a

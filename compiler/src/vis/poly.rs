@@ -11,6 +11,8 @@
 use glam::DVec3;
 use sightline_formats::geom::Plane;
 
+use super::certify::centroid;
+
 /// How far beyond a clipping plane a winding is kept (units). Rounds every clip toward visible.
 pub const CLIP_EPSILON: f64 = 0.01;
 
@@ -296,11 +298,9 @@ impl Sight {
     /// True when every point of `s` is shown to lie on a line from `a` through `b` (see
     /// [`Sight`]).
     pub fn all_through(&mut self, s: &Poly, b: &Poly, a: &Poly) -> bool {
-        if a.n < 3 || b.n < 3 {
+        let (Some(am), Some(bm)) = (centroid(&a.p[..a.n]), centroid(&b.p[..b.n])) else {
             return false;
-        }
-        let am = a.p[..a.n].iter().copied().sum::<DVec3>() / a.n as f64;
-        let bm = b.p[..b.n].iter().copied().sum::<DVec3>() / b.n as f64;
+        };
         let (a_dist, b_dist) = (a.normal.dot(a.p[0]), b.normal.dot(b.p[0]));
         self.a.clear();
         self.b.clear();
