@@ -53,7 +53,7 @@ use super::graph::Graph;
 use super::poly::{
     CAP, CLIP_EPSILON, Clip, Poly, Sight, Sphere, TOUCH_EPSILON, clip_to_separators, for_each_separator,
 };
-use super::seeds::Seeds;
+use super::seeds::{Recorder, Seeds};
 use sightline_formats::bits;
 
 /// Beam culls a flow makes before it gives up culling if none of them dropped a portal. On
@@ -146,6 +146,8 @@ pub struct Flow {
     seeding: bool,
     /// The clusters on a certified line (see [`Flow::certify`]), reused from line to line.
     line: Vec<u32>,
+    /// Seed pairs recorded and not yet flushed to the shared matrix ([`Seeds::record`]).
+    recorded: Recorder,
     /// Beam culls made by this flow so far, and whether any of them dropped a portal.
     culls: u32,
     culled: bool,
@@ -167,6 +169,7 @@ impl Flow {
             chains: 0,
             seeding,
             line: Vec::new(),
+            recorded: Recorder::new(clusters),
             culls: 0,
             culled: false,
             beam_trial: BEAM_TRIAL,
@@ -182,6 +185,7 @@ impl Flow {
             + std::mem::size_of::<Self>() as u128
             + 8 * (words + bits::words(clusters)) as u128
             + 4 * (3 * MAX_FLOW_DEPTH as u128 + 2)
+            + Recorder::bytes(clusters)
     }
 
     /// Whether a beam cull of the last [`Flow::run`] dropped a portal.
@@ -245,10 +249,9 @@ impl Flow {
             // Every cluster counted seen is in the PVS of the base portal's cluster (the row
             // below holds a portal into it), so later flows from that cluster's other portals may
             // start with it seen, as with certified pairs.
-            for c in bits::ones(&self.seen) {
-                seeds.record(p.owner, c as u32);
-            }
+            seeds.record_row(p.owner, &self.seen);
         }
+        seeds.flush(&mut self.recorded);
         // Portals it might see that lead into a cluster it sees: a superset of the portals it
         // sees, which is what later flows may narrow by.
         let might = &test[base * self.words..(base + 1) * self.words];
@@ -446,8 +449,8 @@ impl Flow {
         // Pairs among the first `paired` clusters of the chain are already recorded.
         for j in paired..on.len() {
             for i in 0..j {
-                seeds.record(on[i], on[j]);
-                seeds.record(on[j], on[i]);
+                seeds.record(&mut self.recorded, on[i], on[j]);
+                seeds.record(&mut self.recorded, on[j], on[i]);
             }
         }
         self.frames[k].paired = chain_end;

@@ -798,6 +798,8 @@ struct Cursor {
     /// run halts.
     gate: Mutex<()>,
     wake: Condvar,
+    /// Workers asleep on `wake` (only then does opening a batch need a wake-up call).
+    sleepers: AtomicUsize,
 }
 
 /// Checks a worker makes for the next batch before it sleeps: batches of small maps close within
@@ -821,11 +823,13 @@ impl Cursor {
                 std::thread::yield_now();
             } else {
                 let guard = self.gate.lock().unwrap_or_else(PoisonError::into_inner);
-                if i >= self.ready.load(Ordering::Acquire) && !self.halt.load(Ordering::Acquire) {
+                self.sleepers.fetch_add(1, Ordering::SeqCst);
+                if i >= self.ready.load(Ordering::SeqCst) && !self.halt.load(Ordering::SeqCst) {
                     // The timeout only bounds a wake-up that went astray; `open` and `stop`
                     // notify under the gate, after their store.
                     let _ = self.wake.wait_timeout(guard, Duration::from_millis(10));
                 }
+                self.sleepers.fetch_sub(1, Ordering::SeqCst);
             }
         }
         !self.halt.load(Ordering::Acquire)
@@ -833,20 +837,26 @@ impl Cursor {
 
     /// Lets positions before `end` start, waking sleeping workers.
     fn open(&self, end: usize) {
-        self.ready.store(end, Ordering::Release);
+        self.ready.store(end, Ordering::SeqCst);
         self.notify();
     }
 
     /// Halts the run, waking sleeping workers so they return.
     fn stop(&self) {
-        self.halt.store(true, Ordering::Release);
+        self.halt.store(true, Ordering::SeqCst);
         self.notify();
     }
 
     fn notify(&self) {
-        // Taking the gate orders the store before any waiter's check under it.
-        drop(self.gate.lock().unwrap_or_else(PoisonError::into_inner));
-        self.wake.notify_all();
+        // A worker counts itself asleep before it checks `ready` and `halt`, and the store
+        // came before this load (all sequentially consistent): either it sees the store, or
+        // this sees it counted, and then taking the gate orders the store before its check.
+        // With nobody asleep (one thread, or a batch that closed within the spins) there is
+        // no wake-up call to make.
+        if self.sleepers.load(Ordering::SeqCst) > 0 {
+            drop(self.gate.lock().unwrap_or_else(PoisonError::into_inner));
+            self.wake.notify_all();
+        }
     }
 }
 
@@ -892,6 +902,7 @@ impl Run<'_> {
             counter: AtomicUsize::new(done),
             gate: Mutex::new(()),
             wake: Condvar::new(),
+            sleepers: AtomicUsize::new(0),
         };
         let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None });
         // One worker on every thread of the run's pool (no thread of its own), or on this one.

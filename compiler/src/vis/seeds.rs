@@ -14,6 +14,43 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use sightline_formats::bits;
 
+/// Largest per-thread matrix a [`Recorder`] keeps (bytes): 4 MiB, up to about 5,800 clusters;
+/// with more, pairs go straight to the shared matrix.
+pub const LOCAL_MATRIX_MAX: u128 = 4 << 20;
+
+/// A thread's side of [`Seeds::record`]: its own cluster × cluster matrix of the pairs it
+/// recorded since its last [`Seeds::flush`], and the rows that hold one. Flows record every pair
+/// of clusters on each certified line, over and over; setting bits in a matrix no other thread
+/// writes, then moving each row over once per flow, spares the shared matrix a cache line passed
+/// between the threads on every pair. Empty (pairs go straight to the shared matrix) when the
+/// matrix would be over [`LOCAL_MATRIX_MAX`].
+#[derive(Debug, Default)]
+pub struct Recorder {
+    local: Vec<u64>,
+    /// One bit per cluster: its row of `local` may hold a bit.
+    marked: Vec<u64>,
+    /// The marked rows.
+    rows: Vec<u32>,
+}
+
+impl Recorder {
+    /// A recorder for `clusters` clusters.
+    pub fn new(clusters: usize) -> Self {
+        if Self::bytes(clusters) == 0 {
+            return Self::default();
+        }
+        let cw = bits::words(clusters);
+        Self { local: vec![0; clusters * cw], marked: vec![0; cw], rows: Vec::new() }
+    }
+
+    /// Bytes a recorder for `clusters` clusters holds (0 when over [`LOCAL_MATRIX_MAX`]).
+    pub fn bytes(clusters: usize) -> u128 {
+        let cw = bits::words(clusters) as u128;
+        let matrix = 8 * clusters as u128 * cw;
+        if matrix > LOCAL_MATRIX_MAX { 0 } else { matrix + 8 * cw + 4 * clusters as u128 }
+    }
+}
+
 /// The seeds of the batches folded so far, and the pairs certified by the batch in flight.
 #[derive(Debug)]
 pub struct Seeds {
@@ -50,19 +87,56 @@ impl Seeds {
     }
 
     /// Cluster `from` sees cluster `to` (or counts it seen); visible to flows after the next
-    /// [`Seeds::fold`]. Safe from any number of threads.
-    pub fn record(&self, from: u32, to: u32) {
+    /// [`Seeds::fold`]. A pair already known is dropped; with a local matrix in `rec` (the
+    /// recording thread's own) the others wait there until [`Seeds::flush`], else they go to the
+    /// shared matrix now. Safe from any number of threads.
+    #[inline]
+    pub fn record(&self, rec: &mut Recorder, from: u32, to: u32) {
         let (from, to) = (from as usize, to as usize);
         if bits::get(self.row(from), to) {
             return;
         }
         let (w, m) = (from * self.cw + bits::word_of(to), bits::mask(to));
-        // A plain load first: a pair recorded again (the common case on a chain's clusters) costs
-        // no locked write.
-        if self.pending[w].load(Ordering::Relaxed) & m != 0 {
-            return;
+        match rec.local.get_mut(w) {
+            Some(word) => {
+                *word |= m;
+                let (fw, fm) = (bits::word_of(from), bits::mask(from));
+                if rec.marked[fw] & fm == 0 {
+                    rec.marked[fw] |= fm;
+                    rec.rows.push(from as u32);
+                }
+            }
+            None => self.publish(from, w, m),
         }
-        if self.pending[w].fetch_or(m, Ordering::Relaxed) & m == 0 {
+    }
+
+    /// Cluster `from` sees every cluster of `row` (`bits::words(clusters)` words): as
+    /// [`Seeds::record`] for each, straight to the shared matrix, a word at a time.
+    pub fn record_row(&self, from: u32, row: &[u64]) {
+        let from = from as usize;
+        for (w, (&r, &k)) in row.iter().zip(self.row(from)).enumerate() {
+            self.publish(from, from * self.cw + w, r & !k);
+        }
+    }
+
+    /// Move the pairs `rec` holds to the shared matrix, a word at a time.
+    pub fn flush(&self, rec: &mut Recorder) {
+        for from in rec.rows.drain(..) {
+            let from = from as usize;
+            rec.marked[bits::word_of(from)] &= !bits::mask(from);
+            let range = from * self.cw..(from + 1) * self.cw;
+            for (w, word) in range.clone().zip(&mut rec.local[range]) {
+                self.publish(from, w, std::mem::take(word) & !self.known[w]);
+            }
+        }
+    }
+
+    /// Set the bits `m` in word `w` (of row `from`) of the pending pairs: one plain read when
+    /// they are all set already (the common case), so the word's cache line stays shared.
+    #[inline]
+    fn publish(&self, from: usize, w: usize, m: u64) {
+        let word = &self.pending[w];
+        if m != 0 && word.load(Ordering::Relaxed) & m != m && word.fetch_or(m, Ordering::Relaxed) & m != m {
             self.dirty[bits::word_of(from)].fetch_or(bits::mask(from), Ordering::Relaxed);
         }
     }
@@ -96,20 +170,63 @@ mod tests {
     #[test]
     fn pairs_become_visible_at_the_fold_once_and_in_order() {
         let mut s = Seeds::new(130);
-        s.record(129, 3);
-        s.record(2, 100);
-        s.record(2, 7);
-        s.record(2, 100);
+        let mut buffer = Recorder::new(130);
+        s.record(&mut buffer, 129, 3);
+        s.record(&mut buffer, 2, 100);
+        s.record(&mut buffer, 2, 7);
+        s.record(&mut buffer, 2, 100);
+        s.flush(&mut buffer);
+        assert!(buffer.rows.is_empty() && buffer.local.iter().all(|&w| w == 0));
         assert!(!bits::get(s.row(2), 7), "a pair is not known before the fold");
         let mut got = Vec::new();
         s.fold(|a, b| got.push((a, b)));
         assert_eq!(got, [(2, 7), (2, 100), (129, 3)]);
         assert!(bits::get(s.row(2), 7) && bits::get(s.row(2), 100) && bits::get(s.row(129), 3));
         // Known pairs are not recorded again; a second fold adds only what is new.
-        s.record(2, 7);
-        s.record(0, 0);
+        s.record(&mut buffer, 2, 7);
+        assert!(buffer.rows.is_empty(), "a known pair is not held");
+        s.record(&mut buffer, 0, 0);
+        s.flush(&mut buffer);
         got.clear();
         s.fold(|a, b| got.push((a, b)));
         assert_eq!(got, [(0, 0)]);
+    }
+
+    proptest::proptest! {
+        /// A thread's local matrix changes when pairs reach the shared one, never which: every
+        /// boundary adds the same pairs as recording straight to the shared matrix, however the
+        /// pairs are split between recorders and flushes, and a known pair is never added again.
+        #[test]
+        fn local_matrices_add_what_direct_recording_adds(
+            clusters in 1usize..150,
+            batches in proptest::collection::vec(
+                proptest::collection::vec((0u32..150, 0u32..150, 0usize..3, proptest::bool::ANY), 0..200),
+                1..4,
+            ),
+        ) {
+            let n = clusters as u32;
+            let (mut direct, mut local) = (Seeds::new(clusters), Seeds::new(clusters));
+            let mut straight = Recorder::default();
+            let mut recorders = [Recorder::new(clusters), Recorder::new(clusters), Recorder::new(clusters)];
+            for batch in &batches {
+                for &(from, to, thread, flush) in batch {
+                    let (from, to) = (from % n, to % n);
+                    direct.record(&mut straight, from, to);
+                    local.record(&mut recorders[thread], from, to);
+                    if flush {
+                        local.flush(&mut recorders[thread]);
+                    }
+                }
+                for r in &mut recorders {
+                    local.flush(r);
+                }
+                let (mut want, mut got) = (Vec::new(), Vec::new());
+                direct.fold(|a, b| want.push((a, b)));
+                local.fold(|a, b| got.push((a, b)));
+                proptest::prop_assert_eq!(&got, &want);
+                proptest::prop_assert!(got.iter().all(|&(a, b)| bits::get(local.row(a as usize), b as usize)));
+            }
+            proptest::prop_assert_eq!(&direct.known, &local.known);
+        }
     }
 }
