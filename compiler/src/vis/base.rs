@@ -17,53 +17,65 @@ use sightline_formats::bits;
 /// (units; far below the 1/8-unit precision Quake BSP coordinates carry).
 pub const COPLANAR_EPSILON: f64 = 1e-5;
 
-/// True when some point of `t` lies in front of `p` by more than [`COPLANAR_EPSILON`].
+/// True when some point of `t` lies in front of `p` by more than [`COPLANAR_EPSILON`], for a
+/// pair whose bounding spheres leave it open.
 #[inline]
 fn any_in_front(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
-    let d = p.plane.distance(t.center);
-    if d + t.radius <= COPLANAR_EPSILON {
-        return false;
-    }
-    if d - t.radius > COPLANAR_EPSILON {
-        return true;
-    }
     g.winding(t).iter().any(|q| p.plane.distance(*q) > COPLANAR_EPSILON)
 }
 
-/// True when some point of `p` lies behind `t` by more than [`COPLANAR_EPSILON`].
+/// True when some point of `p` lies behind `t` by more than [`COPLANAR_EPSILON`], for a pair
+/// whose bounding spheres leave it open.
 #[inline]
 fn any_behind(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
-    let d = t.plane.distance(p.center);
-    if d - p.radius >= -COPLANAR_EPSILON {
-        return false;
-    }
-    if d + p.radius < -COPLANAR_EPSILON {
-        return true;
-    }
     g.winding(p).iter().any(|q| t.plane.distance(*q) < -COPLANAR_EPSILON)
 }
 
-/// True when `t` is a candidate for `p`: some point of `t` in front of `p` and some point of `p`
-/// behind `t`, each by more than [`COPLANAR_EPSILON`]. Bounding spheres decide most pairs with
-/// one dot product each.
-#[inline]
-fn candidate(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
-    let d = p.plane.distance(t.center);
-    if d + t.radius <= COPLANAR_EPSILON {
-        return false;
+/// Per cluster, the one-way portals leading out of it, side by side: what the flood reads for
+/// each portal it meets, in one run of memory per cluster (entries `start[c]..start[c + 1]`, in
+/// the order of [`Graph::cluster_portals`]).
+struct Out {
+    /// Per cluster, then one past the last.
+    start: Vec<u32>,
+    portal: Vec<u32>,
+    /// The cluster the portal leads to.
+    leaf: Vec<u32>,
+    /// Its plane, `[normal, dist]`, and its bounding sphere, `[centre, radius]`.
+    plane_sphere: Vec<[f64; 8]>,
+}
+
+/// Bytes [`Out`] takes per one-way portal (for [`super::memory_estimate`]); `4 (clusters + 1)`
+/// more for `start`.
+pub const OUT_BYTES_PER_PORTAL: u128 = 4 + 4 + 64;
+
+impl Out {
+    fn new(g: &Graph) -> Self {
+        let n = g.portals.len();
+        let mut out = Out {
+            start: Vec::with_capacity(g.num_clusters() + 1),
+            portal: Vec::with_capacity(n),
+            leaf: Vec::with_capacity(n),
+            plane_sphere: Vec::with_capacity(n),
+        };
+        for list in &g.cluster_portals {
+            out.start.push(out.portal.len() as u32);
+            for &t in list {
+                let p = &g.portals[t as usize];
+                let (nrm, c) = (p.plane.normal, p.center);
+                out.portal.push(t);
+                out.leaf.push(p.leaf);
+                out.plane_sphere.push([nrm.x, nrm.y, nrm.z, p.plane.dist, c.x, c.y, c.z, p.radius]);
+            }
+        }
+        out.start.push(out.portal.len() as u32);
+        out
     }
-    let e = t.plane.distance(p.center);
-    if e - p.radius >= -COPLANAR_EPSILON {
-        return false;
-    }
-    (d - t.radius > COPLANAR_EPSILON || any_in_front(g, p, t))
-        && (e + p.radius < -COPLANAR_EPSILON || any_behind(g, p, t))
 }
 
 /// The `mightsee` rows (`words` u64 per portal, portal after portal) and the cluster rows they
 /// give. `progress` is called once per finished portal.
 ///
-/// The flood from the cluster a portal leads to enters a portal when it is a [`candidate`]; each
+/// The flood from the cluster a portal leads to enters a portal when it is a candidate; each
 /// cluster is entered once, so each portal out of it is met (and tested) once, and the work grows
 /// with what a portal might see, not with the number of portals in the map. (Entering a cluster
 /// once per portal into it cost, per source, the portals into a cluster times the portals out of
@@ -74,6 +86,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
     let nc = g.num_clusters();
     let cluster_words = bits::words(nc);
     let mut rows = vec![0u64; n * words];
+    let out = Out::new(g);
     let reach: Vec<AtomicU64> = (0..nc * cluster_words).map(|_| AtomicU64::new(0)).collect();
     // Chunks of `words` words, one per portal (none without portals).
     super::parallel::each_row(
@@ -87,14 +100,36 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
             stack.clear();
             stack.push(p.leaf);
             bits::set(entered, p.leaf as usize);
+            let (pn, pd, pc, pr) = (p.plane.normal, p.plane.dist, p.center, p.radius);
             while let Some(c) = stack.pop() {
-                for &ti in &g.cluster_portals[c as usize] {
+                let c = c as usize;
+                let range = out.start[c] as usize..out.start[c + 1] as usize;
+                let entries = out.plane_sphere[range.clone()].iter().zip(&out.portal[range.clone()]);
+                for ((&[nx, ny, nz, nd, x, y, z, radius], &ti), &next) in entries.zip(&out.leaf[range]) {
+                    // `t` is a candidate for `p` when some point of `t` lies in front of `p` and
+                    // some point of `p` behind `t`, each by more than `COPLANAR_EPSILON`; the
+                    // bounding spheres decide most pairs (`Plane::distance` spelled out: the same
+                    // operations in the same order), and first by `p` lying all in front of `t`,
+                    // which refuses most of those refused.
+                    let e = (nx * pc.x + ny * pc.y + nz * pc.z) - nd;
+                    if e - pr >= -COPLANAR_EPSILON {
+                        continue;
+                    }
+                    let d = (pn.x * x + pn.y * y + pn.z * z) - pd;
+                    if d + radius <= COPLANAR_EPSILON {
+                        continue;
+                    }
                     let ti = ti as usize;
                     // `p` itself is met when the flood enters its own cluster; it is no candidate
                     // of itself.
-                    if ti != pi && candidate(g, p, &g.portals[ti]) {
+                    if ti == pi {
+                        continue;
+                    }
+                    let t = &g.portals[ti];
+                    if (d - radius > COPLANAR_EPSILON || any_in_front(g, p, t))
+                        && (e + pr < -COPLANAR_EPSILON || any_behind(g, p, t))
+                    {
                         bits::set(row, ti);
-                        let next = g.portals[ti].leaf;
                         if !bits::get(entered, next as usize) {
                             bits::set(entered, next as usize);
                             stack.push(next);

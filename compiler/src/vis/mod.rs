@@ -507,7 +507,9 @@ fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let points = counts.points;
     let graph = one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8)
         + 2 * (24 + 32) * points
-        + nc * 2 * 24;
+        + nc * 2 * 24
+        + base::OUT_BYTES_PER_PORTAL * one_way
+        + 4 * (nc + 1);
     // `mightsee` and, with the flow, the rows it narrows.
     let mut matrices = one_way * row;
     if !opts.fast {
