@@ -677,8 +677,13 @@ fn run_phases(
             progress(VisProgress { phase: VisPhase::Base, done, total: n });
         });
     // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
-    let base_result = symmetric_result(prt, might_clusters, opts.threads);
-    let avg_mightsee = base_result.average_visible();
+    let (base_result, avg_mightsee) = if opts.fast {
+        let result = symmetric_result(prt, might_clusters, opts.threads);
+        let average = result.average_visible();
+        (Some(result), average)
+    } else {
+        (None, symmetric_average(prt, &might_clusters, opts.threads))
+    };
     let base_seconds = t0.elapsed().as_secs_f64();
     let mut stats = VisStats {
         leaves: prt.num_leaves,
@@ -691,10 +696,9 @@ fn run_phases(
         avg_mightsee,
         ..VisStats::default()
     };
-    let mut result = if opts.fast {
+    let mut result = if let Some(base_result) = base_result {
         base_result
     } else {
-        drop(base_result);
         let t1 = Instant::now();
         let portal_vis = flow_all(prt, &g, &might, words, opts, progress, &mut stats)?;
         stats.flow_seconds = t1.elapsed().as_secs_f64();
@@ -1090,6 +1094,34 @@ fn symmetric_result(prt: &PortalFile, mut rows: Vec<u64>, threads: usize) -> Vis
         rows,
         stats: VisStats::default(),
     }
+}
+
+/// The leaves visible per leaf, on average, in the result cluster rows `rows` give once made
+/// symmetric ([`symmetric_result`]), counted without building it: the same number as that
+/// result's [`VisResult::average_visible`].
+fn symmetric_average(prt: &PortalFile, rows: &[u64], threads: usize) -> f64 {
+    let nc = prt.num_clusters as usize;
+    let cw = bits::words(nc);
+    let mut size = vec![0u64; nc];
+    for &c in &prt.leaf_clusters {
+        size[c as usize] += 1;
+    }
+    // Per cluster `a`, its leaves times the leaves of every cluster `b` it sees that sees it.
+    let mut seen = vec![0u64; nc];
+    if cw > 0 {
+        parallel::each_row(
+            threads,
+            &mut seen,
+            1,
+            || (),
+            |(), a, out| {
+                let both = bits::ones(&rows[a * cw..(a + 1) * cw])
+                    .filter(|&b| bits::get(&rows[b * cw..(b + 1) * cw], a));
+                out[0] = size[a] * both.map(|b| size[b]).sum::<u64>();
+            },
+        );
+    }
+    seen.iter().sum::<u64>() as f64 / prt.num_leaves.max(1) as f64
 }
 
 impl VisResult {

@@ -596,3 +596,20 @@ fn an_automatic_thread_count_is_one_below_the_serial_work_and_every_core_above()
     assert_eq!(long_auto.stats.visible_pairs, 301 * 301);
     assert_eq!(long_one.rows, long_auto.rows, "the same PVS without a pool");
 }
+
+#[test]
+fn the_base_average_counted_directly_is_that_of_the_symmetric_result() {
+    for seed in 0..8 {
+        let prt = grid(6, 5, seed);
+        let g = graph::Graph::new(&prt);
+        let clusters = base::mightsee(&g, bits::words(g.portals.len()), 1, &|| {}).clusters;
+        let want = symmetric_result(&prt, clusters.clone(), 1).average_visible();
+        for threads in [1, 2] {
+            assert_eq!(symmetric_average(&prt, &clusters, threads), want, "seed {seed}");
+        }
+    }
+    // A one-way sight (a sees b, b does not see a) counts for neither.
+    let prt = grid(2, 1, 1);
+    let one_way = [0b01u64, 0b11];
+    assert_eq!(symmetric_average(&prt, &one_way, 1), 1.0);
+}
