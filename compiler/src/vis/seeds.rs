@@ -5,10 +5,11 @@
 //! seen (one way: `from`'s row holds them whether or not they are visible).
 //!
 //! Flows of a batch read only the pairs of earlier batches ([`Seeds::row`]), so what they find
-//! does not depend on timing; the pairs they certify go to a second matrix of atomic words
-//! ([`Seeds::record`]), and the batch boundary moves them over ([`Seeds::fold`]). A pair takes
-//! one bit however many chains or flows certify it, so the seeds of a batch in flight never take
-//! more than that second matrix.
+//! does not depend on timing; the pairs they certify go, through a matrix of the recording
+//! thread's own ([`Recorder`], moved over at the end of each flow), to a second matrix of atomic
+//! words ([`Seeds::record`]), and the batch boundary moves them over ([`Seeds::fold`]). A pair
+//! takes one bit however many chains or flows certify it, so the seeds of a batch in flight never
+//! take more than that second matrix and one bounded matrix per thread.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
