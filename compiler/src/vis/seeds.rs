@@ -120,14 +120,15 @@ impl Seeds {
         }
     }
 
-    /// Move the pairs `rec` holds to the shared matrix, a word at a time.
+    /// Move the pairs `rec` holds to the shared matrix, a word at a time. (They are not known:
+    /// [`Seeds::record`] dropped those, and `known` changes only at a fold, between flows.)
     pub fn flush(&self, rec: &mut Recorder) {
         for from in rec.rows.drain(..) {
             let from = from as usize;
             rec.marked[bits::word_of(from)] &= !bits::mask(from);
             let range = from * self.cw..(from + 1) * self.cw;
             for (w, word) in range.clone().zip(&mut rec.local[range]) {
-                self.publish(from, w, std::mem::take(word) & !self.known[w]);
+                self.publish(from, w, std::mem::take(word));
             }
         }
     }
