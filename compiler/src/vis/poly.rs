@@ -171,7 +171,10 @@ impl Poly {
 /// front (none beyond `-SEPARATOR_EPSILON`, some beyond `+SEPARATOR_EPSILON`) and, unless `a` is
 /// known `convex` (then a plane through its edge leaning away from it has it behind), all of `a`
 /// behind (none beyond `+SEPARATOR_EPSILON`, some beyond `-SEPARATOR_EPSILON`). Skipping a plane
-/// is always safe: it only keeps more.
+/// is always safe: it only keeps more. When every point of `b` lies more than `SEPARATOR_EPSILON`
+/// above `a`'s plane (the usual case), the vertex turned farthest has every other point of `b` on
+/// its front side by construction (their angles from +x all lie between 0 and π), so only "some
+/// point in front" is checked, and the first point found ends the check.
 #[inline]
 pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, convex: bool, mut f: impl FnMut(&Plane) -> bool) {
     let (an, bn) = (a.n, b.n);
@@ -201,6 +204,7 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, convex: bool, mut f: i
         1.0
     };
     let heights = &heights[..bn];
+    let clear = heights.iter().all(|&h| h > SEPARATOR_EPSILON);
     for i in 0..an {
         let ai = a_pts[i];
         let e = a_pts[if i + 1 == an { 0 } else { i + 1 }] - ai;
@@ -224,7 +228,8 @@ pub fn for_each_separator(a: &Poly, b: &Poly, flip: bool, convex: bool, mut f: i
         }
         let Some(normal) = (x * by - y * bx).try_normalize() else { continue };
         let dist = normal.dot(ai);
-        if !in_front(normal, dist, b_pts) || (!convex && !behind(normal, dist, a_pts)) {
+        let front = if clear { any_in_front(normal, dist, b_pts) } else { in_front(normal, dist, b_pts) };
+        if !front || (!convex && !behind(normal, dist, a_pts)) {
             continue;
         }
         let plane = if flip { Plane { normal: -normal, dist: -dist } } else { Plane { normal, dist } };
@@ -247,6 +252,12 @@ fn in_front(normal: DVec3, dist: f64, b: &[DVec3]) -> bool {
         front |= d > SEPARATOR_EPSILON;
     }
     front
+}
+
+/// True when some point of `b` lies in front of the plane beyond [`SEPARATOR_EPSILON`].
+#[inline]
+fn any_in_front(normal: DVec3, dist: f64, b: &[DVec3]) -> bool {
+    b.iter().any(|q| normal.dot(*q) - dist > SEPARATOR_EPSILON)
 }
 
 /// True when no point of `a` lies in front of the plane beyond [`SEPARATOR_EPSILON`] and some
@@ -478,6 +489,40 @@ mod tests {
                     prop_assert!(clips.iter().all(|&c| c == Clip::Whole), "{clips:?}");
                 }
             }
+        }
+
+        /// Every plane kept has `b` wholly in front and some of it beyond the epsilon, as the full
+        /// check demands, also where that check is skipped because `b` lies above `a`'s plane:
+        /// `b` a random convex polygon (points on an ellipse) at any height and tilt, from well
+        /// above `a` to crossing its plane.
+        #[test]
+        fn every_separator_has_the_pass_in_front(
+            angles in prop::collection::vec(0.0f64..std::f64::consts::TAU, 3..9),
+            center in prop::collection::vec(-80.0f64..80.0, 2),
+            radii in prop::collection::vec(0.5f64..60.0, 2),
+            height in -5.0f64..120.0,
+            tilt in prop::collection::vec(-1.5f64..1.5, 2),
+            flip in any::<bool>(),
+        ) {
+            let a = square(0.0, 64.0);
+            let mut sorted = angles.clone();
+            sorted.sort_by(f64::total_cmp);
+            sorted.dedup_by(|x, y| (*x - *y).abs() < 1e-3);
+            prop_assume!(sorted.len() >= 3);
+            // On an ellipse in a plane tilted about the y and z axes, at `height` beyond x = 0.
+            let pts: Vec<DVec3> = sorted
+                .iter()
+                .map(|&t| {
+                    let (y, z) = (center[0] + radii[0] * t.cos(), center[1] + radii[1] * t.sin());
+                    DVec3::new(height + tilt[0] * y + tilt[1] * z, y, z)
+                })
+                .collect();
+            let b = poly(&pts);
+            for_each_separator(&a, &b, flip, true, |plane| {
+                let (normal, dist) = if flip { (-plane.normal, -plane.dist) } else { (plane.normal, plane.dist) };
+                assert!(in_front(normal, dist, &b.p[..b.n]), "b not in front of {plane:?}");
+                true
+            });
         }
 
         /// Any segment from a point of `a` through a point of `b` continues, beyond `b`, into the
