@@ -388,20 +388,28 @@ pub fn ambient_levels_with(bsp: &Bsp, result: &VisResult, opts: &AmbientOptions)
             s
         })
         .collect();
-    let mut out: Vec<[u8; 4]> = bsp.leaves.iter().map(|l| l.ambient).collect();
-    let mut row = Vec::new();
-    for j in 0..result.num_leaves() {
-        result.leaf_row_bytes(j, &mut row);
-        let mut s = [false; 4];
-        for (k, sounds) in own.iter().enumerate() {
-            if bits::bytes::get(&row, k) {
-                for (a, b) in s.iter_mut().zip(sounds) {
+    // A leaf hears what any leaf of a cluster its cluster sees makes: gathered per cluster once.
+    let mut makes = vec![[false; 4]; result.num_clusters()];
+    for (sounds, &c) in own.iter().zip(result.leaf_clusters()) {
+        for (a, b) in makes[c as usize].iter_mut().zip(sounds) {
+            *a |= *b;
+        }
+    }
+    let hears: Vec<[u8; 4]> = (0..result.num_clusters())
+        .map(|c| {
+            let mut s = [false; 4];
+            for k in bits::ones(result.cluster_row(c)) {
+                for (a, b) in s.iter_mut().zip(&makes[k]) {
                     *a |= *b;
                 }
             }
-        }
+            s.map(|on| if on { 255 } else { 0 })
+        })
+        .collect();
+    let mut out: Vec<[u8; 4]> = bsp.leaves.iter().map(|l| l.ambient).collect();
+    for (j, &c) in result.leaf_clusters().iter().enumerate() {
         if let Some(slot) = out.get_mut(j + 1) {
-            *slot = s.map(|on| if on { 255 } else { 0 });
+            *slot = hears[c as usize];
         }
     }
     out
