@@ -15,6 +15,7 @@
 pub mod atomic;
 pub mod bits;
 pub mod bsp;
+mod decimal;
 pub mod entities;
 pub mod geom;
 pub mod kind;

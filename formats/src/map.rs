@@ -407,7 +407,7 @@ impl<'a> Parser<'a, '_> {
     }
 
     fn number_of(&self, tok: &Token<'_>) -> Result<f64, MapError> {
-        let Ok(v) = tok.text.parse::<f64>() else {
+        let Some(v) = crate::decimal::parse_f64(tok.text) else {
             return Err(self.at(tok, MapErrorKind::NotANumber(shown(tok.text))));
         };
         if !v.is_finite() {

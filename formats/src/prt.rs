@@ -566,7 +566,7 @@ impl<'a> Reader<'a, '_> {
 
     fn coord(&mut self) -> Result<f64, PrtError> {
         let tok = self.next("a coordinate")?;
-        let Ok(v) = tok.text.parse::<f64>() else {
+        let Some(v) = crate::decimal::parse_f64(tok.text) else {
             return Err(
                 self.at(&tok, PrtErrorKind::NotANumber { found: shown(tok.text), expected: "a coordinate" })
             );
