@@ -798,8 +798,6 @@ struct Cursor {
     ready: Lone<AtomicUsize>,
     /// Set when the run stops early (interrupted or failed).
     halt: Lone<AtomicBool>,
-    /// Flow portals finished, for progress.
-    counter: AtomicUsize,
     /// Where a worker that waited past [`SPIN_WAITS`] checks sleeps until the batch opens or the
     /// run halts.
     gate: Mutex<()>,
@@ -922,7 +920,6 @@ impl Run<'_> {
             finished: AtomicUsize::new(0),
             ready: Lone(AtomicUsize::new((done + self.batch).min(self.n))),
             halt: Lone(AtomicBool::new(false)),
-            counter: AtomicUsize::new(done),
             gate: Mutex::new(()),
             wake: Condvar::new(),
             sleepers: AtomicUsize::new(0),
@@ -955,15 +952,25 @@ impl Run<'_> {
         boundary: &Mutex<Boundary<'_>>,
     ) {
         let mut f = flow::Flow::new(self.words, self.g.num_clusters(), self.opts.level, self.opts.seeds);
+        // The rows, read-locked from a worker's first flow of a batch to its last: a batch is
+        // folded (write-locked) only once all its flows are done, and a worker lets go before it
+        // waits for the next batch.
+        let mut rows = None;
+        // A row for the next result: the one this worker's last flow replaced in its slot.
+        let mut spare = Vec::new();
         loop {
             let i = cursor.next.fetch_add(1, Ordering::AcqRel);
             if i >= self.n {
                 return;
             }
+            if i >= cursor.ready.load(Ordering::Acquire) {
+                rows = None;
+            }
             if !cursor.wait_for(i) {
                 return;
             }
-            let mut out = vec![0u64; self.words];
+            let mut out = std::mem::take(&mut spare);
+            out.resize(self.words, 0);
             f.chains = 0;
             #[cfg(test)]
             if self.opts.panic_at == Some(i) {
@@ -974,16 +981,21 @@ impl Run<'_> {
             // A batch's portals are handed out from its end: `order` puts the largest `mightsee`
             // (the longest flows) there, so the batch's last flows to start are its shortest.
             let pos = batch_end - 1 - (i - batch_start);
+            let r = rows.get_or_insert_with(|| test.read().unwrap_or_else(PoisonError::into_inner));
+            f.run(self.g, &r.test, &r.seeds, self.order[pos], flow::trial_after(r.quiet), &mut out);
             {
-                let rows = test.read().unwrap_or_else(PoisonError::into_inner);
-                let trial = flow::trial_after(rows.quiet);
-                f.run(self.g, &rows.test, &rows.seeds, self.order[pos], trial, &mut out);
+                let mut slot = slots[pos - batch_start].lock().unwrap_or_else(PoisonError::into_inner);
+                spare = std::mem::replace(&mut slot.row, out);
+                (slot.chains, slot.dropped) = (f.chains, f.dropped());
             }
-            *slots[pos - batch_start].lock().unwrap_or_else(PoisonError::into_inner) =
-                Slot { row: out, chains: f.chains, dropped: f.dropped() };
-            let d = cursor.counter.fetch_add(1, Ordering::Relaxed) + 1;
-            (self.progress)(VisProgress { phase: VisPhase::Flow, done: d, total: self.n });
-            if cursor.finished.fetch_add(1, Ordering::AcqRel) + 1 == batch_end - batch_start {
+            let finished = cursor.finished.fetch_add(1, Ordering::AcqRel) + 1;
+            (self.progress)(VisProgress {
+                phase: VisPhase::Flow,
+                done: batch_start + finished,
+                total: self.n,
+            });
+            if finished == batch_end - batch_start {
+                rows = None;
                 self.close_batch(batch_start, batch_end, test, slots, cursor, boundary);
             }
         }
