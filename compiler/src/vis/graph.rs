@@ -80,16 +80,19 @@ impl Graph {
     /// `prt.num_clusters` (the `.prt` reader does).
     pub fn new(prt: &PortalFile) -> Self {
         let num_clusters = prt.num_clusters as usize;
+        // Sized from the file once (each portal line gives two one-way portals), not grown.
+        let points: usize = prt.portals.iter().map(|l| l.winding.points.len()).sum();
         let mut g = Graph {
             portals: Vec::with_capacity(prt.portals.len() * 2),
-            points: Vec::new(),
+            points: Vec::with_capacity(points * 2),
             cluster_portals: vec![Vec::new(); num_clusters],
             cluster_incoming: vec![Vec::new(); num_clusters],
             spheres: Vec::with_capacity(prt.portals.len() * 2),
-            edges: Vec::new(),
+            edges: Vec::with_capacity(points * 2),
             dropped: 0,
             convex: true,
         };
+        let mut reversed = Vec::new();
         for line in &prt.portals {
             let [a, b] = line.leaves;
             let plane = line.winding.plane();
@@ -101,8 +104,8 @@ impl Graph {
             };
             let pts = &line.winding.points;
             g.convex &= well_formed(pts, &plane);
-            let mut reversed = pts.clone();
-            reversed.reverse();
+            reversed.clear();
+            reversed.extend(pts.iter().rev());
             g.push(plane.flipped(), b, a, pts);
             g.push(plane, a, b, &reversed);
         }

@@ -700,7 +700,7 @@ fn run_phases(
         base_result
     } else {
         let t1 = Instant::now();
-        let portal_vis = flow_all(prt, &g, &might, words, opts, progress, &mut stats)?;
+        let portal_vis = flow_all(prt, &g, might, words, opts, progress, &mut stats)?;
         stats.flow_seconds = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
         let result = cluster_rows(prt, &g, &portal_vis, words, opts.threads);
@@ -716,7 +716,7 @@ fn run_phases(
 fn flow_all(
     prt: &PortalFile,
     g: &graph::Graph,
-    might: &[u64],
+    might: Vec<u64>,
     words: usize,
     opts: &VisOptions,
     progress: &(dyn Fn(VisProgress) + Sync),
@@ -725,7 +725,8 @@ fn flow_all(
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
-    let mut test = might.to_vec();
+    // The flow narrows the `mightsee` rows in place.
+    let mut test = might;
     symmetry::tighten_all(&mut test, words, n);
     let nc = g.num_clusters();
     let mut seeds = seeds::Seeds::new(nc);
