@@ -594,7 +594,7 @@ fn an_automatic_thread_count_is_one_below_the_serial_work_and_every_core_above()
     assert_eq!(long_auto.stats.threads, cores);
     assert_eq!(long_one.stats.threads, 1);
     assert_eq!(long_auto.stats.visible_pairs, 301 * 301);
-    assert_eq!(long_one.rows, long_auto.rows, "the same PVS without a pool");
+    assert_eq!(long_one.rows, long_auto.rows, "the same PVS on one thread");
 }
 
 #[test]
