@@ -31,47 +31,43 @@ fn any_behind(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
     g.winding(p).iter().any(|q| t.plane.distance(*q) < -COPLANAR_EPSILON)
 }
 
-/// A one-way portal as the flood meets it.
-struct Entry {
-    /// Its plane, `[normal, dist]`, and its bounding sphere, `[centre, radius]`.
-    plane_sphere: [f64; 8],
-    portal: u32,
-    /// The cluster it leads to.
-    leaf: u32,
-}
-
 /// Per cluster, the one-way portals leading out of it, side by side: what the flood reads for
 /// each portal it meets, in one run of memory per cluster (entries `start[c]..start[c + 1]`, in
 /// the order of [`Graph::cluster_portals`]).
 struct Out {
     /// Per cluster, then one past the last.
     start: Vec<u32>,
-    entries: Vec<Entry>,
+    portal: Vec<u32>,
+    /// The cluster the portal leads to.
+    leaf: Vec<u32>,
+    /// Its plane, `[normal, dist]`, and its bounding sphere, `[centre, radius]`.
+    plane_sphere: Vec<[f64; 8]>,
 }
 
 /// Bytes [`Out`] takes per one-way portal (for [`super::memory_estimate`]); `4 (clusters + 1)`
 /// more for `start`.
-pub const OUT_BYTES_PER_PORTAL: u128 = std::mem::size_of::<Entry>() as u128;
+pub const OUT_BYTES_PER_PORTAL: u128 = 4 + 4 + 64;
 
 impl Out {
     fn new(g: &Graph) -> Self {
+        let n = g.portals.len();
         let mut out = Out {
             start: Vec::with_capacity(g.num_clusters() + 1),
-            entries: Vec::with_capacity(g.portals.len()),
+            portal: Vec::with_capacity(n),
+            leaf: Vec::with_capacity(n),
+            plane_sphere: Vec::with_capacity(n),
         };
         for list in &g.cluster_portals {
-            out.start.push(out.entries.len() as u32);
+            out.start.push(out.portal.len() as u32);
             for &t in list {
                 let p = &g.portals[t as usize];
                 let (nrm, c) = (p.plane.normal, p.center);
-                out.entries.push(Entry {
-                    plane_sphere: [nrm.x, nrm.y, nrm.z, p.plane.dist, c.x, c.y, c.z, p.radius],
-                    portal: t,
-                    leaf: p.leaf,
-                });
+                out.portal.push(t);
+                out.leaf.push(p.leaf);
+                out.plane_sphere.push([nrm.x, nrm.y, nrm.z, p.plane.dist, c.x, c.y, c.z, p.radius]);
             }
         }
-        out.start.push(out.entries.len() as u32);
+        out.start.push(out.portal.len() as u32);
         out
     }
 }
@@ -108,9 +104,8 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
             while let Some(c) = stack.pop() {
                 let c = c as usize;
                 let range = out.start[c] as usize..out.start[c + 1] as usize;
-                for &Entry { plane_sphere: [nx, ny, nz, nd, x, y, z, radius], portal: ti, leaf: next } in
-                    &out.entries[range]
-                {
+                let entries = out.plane_sphere[range.clone()].iter().zip(&out.portal[range.clone()]);
+                for ((&[nx, ny, nz, nd, x, y, z, radius], &ti), &next) in entries.zip(&out.leaf[range]) {
                     // `t` is a candidate for `p` when some point of `t` lies in front of `p` and
                     // some point of `p` behind `t`, each by more than `COPLANAR_EPSILON`; the
                     // bounding spheres decide most pairs (`Plane::distance` spelled out: the same
