@@ -366,35 +366,24 @@ pub fn ambient_levels_with(bsp: &Bsp, result: &VisResult, opts: &AmbientOptions)
             *s = true;
         }
     }
-    // Sounds present in each vis leaf's own faces.
-    let own: Vec<[bool; 4]> = (0..result.num_leaves())
-        .map(|j| {
-            let mut s = [false; 4];
-            if let Some(leaf) = bsp.leaves.get(j + 1) {
-                let first = leaf.first_marksurface as usize;
-                let marks =
-                    bsp.marksurfaces.get(first..first + leaf.num_marksurfaces as usize).unwrap_or_default();
-                for &m in marks {
-                    let sound = bsp
-                        .faces
-                        .get(m as usize)
-                        .filter(|f| !silent.get(f.texinfo as usize).copied().unwrap_or(false))
-                        .and_then(|f| TextureKind::of(bsp.face_texture_name(f)).ambient());
-                    if let Some(sound) = sound.filter(|a| !opts.off[a.index()]) {
-                        s[sound.index()] = true;
-                    }
-                }
-            }
-            s
-        })
-        .collect();
-    // A leaf hears what any leaf of a cluster its cluster sees makes: gathered per cluster once.
+    // Sounds the faces of each cluster's vis leaves make.
     let mut makes = vec![[false; 4]; result.num_clusters()];
-    for (sounds, &c) in own.iter().zip(result.leaf_clusters()) {
-        for (a, b) in makes[c as usize].iter_mut().zip(sounds) {
-            *a |= *b;
+    for (j, &c) in result.leaf_clusters().iter().enumerate() {
+        let Some(leaf) = bsp.leaves.get(j + 1) else { continue };
+        let first = leaf.first_marksurface as usize;
+        let marks = bsp.marksurfaces.get(first..first + leaf.num_marksurfaces as usize).unwrap_or_default();
+        for &m in marks {
+            let sound = bsp
+                .faces
+                .get(m as usize)
+                .filter(|f| !silent.get(f.texinfo as usize).copied().unwrap_or(false))
+                .and_then(|f| TextureKind::of(bsp.face_texture_name(f)).ambient());
+            if let Some(sound) = sound.filter(|a| !opts.off[a.index()]) {
+                makes[c as usize][sound.index()] = true;
+            }
         }
     }
+    // A leaf hears what any leaf of a cluster its cluster sees makes.
     let hears: Vec<[u8; 4]> = (0..result.num_clusters())
         .map(|c| {
             let mut s = [false; 4];

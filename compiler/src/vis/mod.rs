@@ -664,13 +664,14 @@ fn run_phases(
             let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
             progress(VisProgress { phase: VisPhase::Base, done, total: n });
         });
+    let row_threads = rows_threads(prt, words, opts.threads);
     // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
     let (base_result, avg_mightsee) = if opts.fast {
-        let result = symmetric_result(prt, might_clusters, rows_threads(prt, words, opts.threads));
+        let result = symmetric_result(prt, might_clusters, row_threads);
         let average = result.average_visible();
         (Some(result), average)
     } else {
-        (None, symmetric_average(prt, &might_clusters, rows_threads(prt, words, opts.threads)))
+        (None, symmetric_average(prt, &might_clusters, row_threads))
     };
     let base_seconds = t0.elapsed().as_secs_f64();
     let mut stats = VisStats {
@@ -691,7 +692,7 @@ fn run_phases(
         let portal_vis = flow_all(prt, &g, might, words, opts, progress, &mut stats)?;
         stats.flow_seconds = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
-        let result = cluster_rows(prt, &g, &portal_vis, words, rows_threads(prt, words, opts.threads));
+        let result = cluster_rows(prt, &g, &portal_vis, words, row_threads);
         stats.rows_seconds = t2.elapsed().as_secs_f64();
         result
     };
