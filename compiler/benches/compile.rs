@@ -8,7 +8,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 
 fn bench_compile(c: &mut Criterion) {
-    let Some(dir) = sightline_formats::shared_maps::dir() else {
+    let Some(dir) = sightline_tests::shared_maps() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); compile benchmarks skipped");
         return;
     };

@@ -35,7 +35,7 @@ const ANCHORS: [(&str, f64, f64, f64, f64, f64); 12] = [
 ];
 
 fn maps_dir() -> PathBuf {
-    sightline_formats::shared_maps::dir().unwrap_or_default().join("ericw")
+    sightline_tests::shared_maps().unwrap_or_default().join("ericw")
 }
 
 /// User + system CPU seconds of this process, from `/proc/self/stat` (clock ticks of 1/100 s).

@@ -25,7 +25,7 @@ pub mod visdata;
 #[cfg(test)]
 mod limit_tests;
 
-pub use sightline_formats::progress::{NoProgress, Progress};
+pub use sightline_job::progress::{NoProgress, Progress};
 
 pub use visdata::store_pvs;
 

@@ -580,7 +580,7 @@ mod tests {
     /// A fresh temp dir holding a copy of the shared map `name` (`.bsp`, `.prt`, and its
     /// `.texinfo.json` when `with_side`) as `m.*`; `None` when the shared maps are absent.
     fn copy_shared(name: &str, tag: &str, with_side: bool) -> Option<(PathBuf, PathBuf)> {
-        let src = sightline_formats::shared_maps::dir()?.join(name);
+        let src = sightline_tests::shared_maps()?.join(name);
         if !src.is_file() {
             return None;
         }
@@ -690,7 +690,7 @@ mod tests {
     #[test]
     fn level_cluster_boxes_union_the_leaves_of_each_cluster_and_leave_unnamed_ones_unbounded() {
         use sightline_formats::bsp::q2;
-        let Some(dir) = sightline_formats::shared_maps::dir() else { return };
+        let Some(dir) = sightline_tests::shared_maps() else { return };
         let (bsp_path, prt_path) = (dir.join("q2/dm2.bsp"), dir.join("q2/dm2.prt"));
         let (Ok(bytes), Ok(prt_bytes)) = (std::fs::read(&bsp_path), std::fs::read(&prt_path)) else { return };
         let file = q2::read(&bytes).expect("dm2");

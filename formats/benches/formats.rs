@@ -28,7 +28,7 @@ fn rows(c: &mut Criterion) {
 }
 
 fn files(c: &mut Criterion) {
-    let Some(dir) = sightline_formats::shared_maps::dir() else {
+    let Some(dir) = sightline_tests::shared_maps() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); BSP and .slvl benchmarks skipped");
         return;
     };

@@ -7,7 +7,7 @@ use sightline_formats::map;
 use std::hint::black_box;
 
 fn parse(c: &mut Criterion) {
-    let Some(dir) = sightline_formats::shared_maps::dir() else {
+    let Some(dir) = sightline_tests::shared_maps() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); .map benchmarks skipped");
         return;
     };

@@ -2,7 +2,7 @@
 //! memory and in files), the level data model, the texture-name rules (`texture`), and every
 //! on-disk format (`.map`, `.obj`, `.prt`, Quake BSP29/BSP2, the Quake PVS RLE, `.slvl` and the
 //! `.vis` file, and the external `.vis` files engines load beside a map: `vispatch`), with `kind`
-//! telling them apart and `atomic` writing them.
+//! telling them apart.
 //!
 //! The `.map` parser (`map`), the `.obj` loader (`obj`) and the reader of ericw-tools'
 //! `NAME.texinfo.json` (`texinfo_json`) are behind the features of the same names; telling those
@@ -12,7 +12,6 @@
 //! count read from a file is checked against the bytes that remain before anything is allocated.
 //! Text formats report `file:line:col`, binary formats a byte offset.
 
-pub mod atomic;
 pub mod bits;
 pub mod bsp;
 mod decimal;
@@ -26,11 +25,8 @@ mod lexer;
 pub mod map;
 #[cfg(feature = "obj")]
 pub mod obj;
-pub mod progress;
 pub mod prt;
 pub mod rle;
-pub mod rng;
-pub mod shared_maps;
 pub mod slvl;
 #[cfg(all(test, any(feature = "map", feature = "obj")))]
 mod test_support;

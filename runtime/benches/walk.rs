@@ -8,7 +8,7 @@ use sightline_runtime::backend::{self, Backend};
 use sightline_runtime::{Scratch, Visible, World, load, poses, synth};
 
 fn world() -> (String, World) {
-    let dir = sightline_formats::shared_maps::dir().unwrap_or_default();
+    let dir = sightline_tests::shared_maps().unwrap_or_default();
     let path = dir.join("ericw/e1m1_nodetail.vis.bsp");
     match load::load_path(&path) {
         Ok(world) => ("e1m1".to_string(), world),

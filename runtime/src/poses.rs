@@ -5,7 +5,7 @@ use glam::{Vec3, Vec3A};
 use crate::camera::Camera;
 use crate::world::World;
 
-pub use sightline_formats::rng::SplitMix64;
+pub use sightline_job::rng::SplitMix64;
 
 /// A point uniform in the box `mins..maxs`.
 pub fn point_in(rng: &mut SplitMix64, mins: Vec3A, maxs: Vec3A) -> Vec3A {

@@ -325,7 +325,7 @@ impl PhsRows {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sightline_formats::rng::SplitMix64;
+    use sightline_job::rng::SplitMix64;
 
     #[test]
     fn decoded_rows_hold_the_bits_of_the_byte_rows() {

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 
 /// The workspace root.
 pub fn workspace_root() -> PathBuf {
@@ -14,15 +14,35 @@ pub fn bundled_maps() -> PathBuf {
     workspace_root().join("maps")
 }
 
-/// The shared real maps: `$SIGHTLINE_MAPS`, or `../shared/maps` beside the workspace. Returns
+/// Set (to anything but `0` or empty) in CI: a missing shared map is a test failure, not a skip.
+pub const REQUIRE_MAPS: &str = "SIGHTLINE_REQUIRE_MAPS";
+
+/// True when [`REQUIRE_MAPS`] is set: every real-map skip becomes a panic.
+pub fn maps_required() -> bool {
+    std::env::var_os(REQUIRE_MAPS).is_some_and(|v| !v.is_empty() && v != "0")
+}
+
+/// The shared real maps (id's GPL release, LibreQuake, the reference compilers' outputs; never
+/// copied into the project): `$SIGHTLINE_MAPS`, or `../shared/maps` beside the workspace. Returns
 /// `None`, after printing why, when the folder is absent, so a test can skip its real-map part
-/// visibly rather than silently.
+/// visibly rather than silently; panics instead when [`maps_required`].
 pub fn shared_maps() -> Option<PathBuf> {
-    let dir = sightline_formats::shared_maps::dir();
-    if dir.is_none() {
-        eprintln!("note: real maps not found (set SIGHTLINE_MAPS); real-map checks are not run");
+    let dir = std::env::var_os("SIGHTLINE_MAPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("../shared/maps"));
+    if dir.is_dir() {
+        return Some(dir);
     }
-    dir
+    missing(&format!("real maps not found at {} (set SIGHTLINE_MAPS)", dir.display()));
+    None
+}
+
+/// Says that a real map is missing: a note, or a panic when [`maps_required`].
+pub fn missing(what: &str) {
+    if maps_required() {
+        panic!("{what}, and {REQUIRE_MAPS} is set: real-map checks may not be skipped");
+    }
+    eprintln!("note: {what}; its checks are not run");
 }
 
 /// The file `rel` (for example `ericw/e1m1.prt`) under [`shared_maps`], or `None`, after printing
@@ -32,7 +52,7 @@ pub fn shared_map(rel: &str) -> Option<PathBuf> {
     if p.is_file() {
         Some(p)
     } else {
-        eprintln!("note: {} missing; its checks are not run", p.display());
+        missing(&format!("{} missing", p.display()));
         None
     }
 }

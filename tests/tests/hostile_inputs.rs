@@ -67,7 +67,7 @@ fn peak_during(f: impl FnOnce()) -> usize {
     (PEAK.with(Cell::get) - base).max(0) as usize
 }
 
-use sightline_formats::rng::SplitMix64 as Rng;
+use sightline_job::rng::SplitMix64 as Rng;
 use sightline_tests::mutate;
 
 /// Values that break naive readers when they land in a count, offset or length field.

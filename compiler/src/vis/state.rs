@@ -3,7 +3,7 @@
 //!
 //! The file is bincode 2 (serde, fixed-width integers, little-endian) of [`State`], followed by a
 //! trailer of 8 bytes: [`fnv1a`] of everything before it, little-endian. It is written with
-//! [`sightline_formats::atomic::write_file_atomic`] (a crash leaves the previous checkpoint).
+//! [`sightline_job::atomic::write_file_atomic`] (a crash leaves the previous checkpoint).
 //!
 //! What is stored is the *log* of the batch boundaries, not a snapshot of the matrices: for each
 //! finished portal (in processing order) its row as it was folded into the matrix, the chains its
@@ -28,8 +28,8 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use sightline_formats::atomic::write_file_atomic;
 use sightline_formats::bits;
+use sightline_job::atomic::write_file_atomic;
 
 use super::VisError;
 use super::{flow, symmetry};

@@ -159,7 +159,7 @@ fn windings_count_as_convex_only_when_they_are() {
 /// An `nx` × `ny` grid of 64-unit cells (one leaf and cluster each) whose walls have openings of
 /// random size and place, some walls none: many batches, and flows that certify sight lines.
 fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
-    let mut rng = sightline_formats::rng::SplitMix64::new(seed);
+    let mut rng = sightline_job::rng::SplitMix64::new(seed);
     // A rectangle facing `into` (the normal points into the file's first leaf).
     let rect = |pts: Vec<DVec3>, into: DVec3| {
         let w = Winding::new(pts);
@@ -314,7 +314,7 @@ fn resume_from_any_checkpoint_equals_the_uninterrupted_run_or_fails() {
 fn resume_on_a_real_map_equals_the_uninterrupted_run_or_fails() {
     // ericw's dm1, where a checkpoint cut back to a portal count between batches (its later
     // seeds kept) used to resume to about 30 fewer pairs: the rest was batched differently.
-    let Some(path) = sightline_formats::shared_maps::dir().map(|d| d.join("ericw/dm1.prt")) else { return };
+    let Some(path) = sightline_tests::shared_maps().map(|d| d.join("ericw/dm1.prt")) else { return };
     let Ok(text) = std::fs::read_to_string(&path) else { return };
     let prt = sightline_formats::prt::read(&text, "dm1.prt").expect("parse");
     check_resumes(&prt, "dm1", &[2, 9, 16]);
@@ -379,7 +379,7 @@ fn allocated_matrices(prt: &PortalFile, fast: bool) -> u64 {
 fn memory_estimate_covers_the_matrices_and_max_memory_refuses() {
     let mut files =
         vec![("grid".to_string(), grid(12, 9, 7)), ("corridor".into(), corridor(&[0.0; 5], &[64.0; 5]))];
-    if let Some(dir) = sightline_formats::shared_maps::dir() {
+    if let Some(dir) = sightline_tests::shared_maps() {
         for name in ["dm1", "e1m1", "e1m2"] {
             if let Ok(text) = std::fs::read_to_string(dir.join(format!("ericw/{name}.prt"))) {
                 files.push((name.to_string(), sightline_formats::prt::read(&text, name).expect("parse")));
@@ -442,7 +442,7 @@ fn missed_pairs(fine: &VisResult, coarse: &VisResult) -> usize {
 #[test]
 fn coarsening_to_fit_memory_only_loosens_and_is_deterministic() {
     let mut files = vec![("grid".to_string(), grid(30, 24, 7))];
-    if let Some(dir) = sightline_formats::shared_maps::dir() {
+    if let Some(dir) = sightline_tests::shared_maps() {
         for name in ["dm1", "e1m1"] {
             if let Ok(text) = std::fs::read_to_string(dir.join(format!("ericw/{name}.prt"))) {
                 files.push((name.to_string(), sightline_formats::prt::read(&text, name).expect("parse")));

@@ -418,7 +418,7 @@ mod tests {
     use proptest::prelude::*;
 
     /// Random fields on the project's generator.
-    struct Rng(crate::rng::SplitMix64);
+    struct Rng(sightline_job::rng::SplitMix64);
 
     impl Rng {
         fn next(&mut self) -> u64 {
@@ -440,7 +440,7 @@ mod tests {
 
     /// A random level that satisfies every invariant [`validate`] checks.
     pub(crate) fn random_level(seed: u64) -> Level {
-        let mut r = Rng(crate::rng::SplitMix64::new(seed));
+        let mut r = Rng(sightline_job::rng::SplitMix64::new(seed));
         let mut level = Level {
             entities: format!("{{\n\"classname\" \"worldspawn\"\n\"message\" \"é {seed}\"\n}}\n"),
             ..Level::default()

@@ -250,7 +250,7 @@ mod tests {
     /// turns counter-clockwise around its normal, as Bevy's front faces do.
     #[test]
     fn corners_turn_counter_clockwise_around_the_normal_in_bevy_axes() {
-        let Some(path) = sightline_formats::shared_maps::dir().map(|d| d.join("ericw/e1m1.vis.bsp")) else {
+        let Some(path) = sightline_tests::shared_maps().map(|d| d.join("ericw/e1m1.vis.bsp")) else {
             eprintln!("note: real maps not found (set SIGHTLINE_MAPS); the winding check is not run");
             return;
         };

@@ -192,7 +192,7 @@ fn a_scaled_and_turned_level_is_culled_in_its_own_space() {
 
 #[test]
 fn the_scripted_walk_on_e1m1_hides_and_draws() {
-    let Some(dir) = sightline_formats::shared_maps::dir() else {
+    let Some(dir) = sightline_tests::shared_maps() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); the E1M1 walk is not run");
         return;
     };
@@ -215,7 +215,7 @@ fn the_scripted_walk_on_e1m1_hides_and_draws() {
 
 #[test]
 fn a_damaged_level_fails_to_load_with_its_name_and_place() {
-    let Some(dir) = sightline_formats::shared_maps::dir() else {
+    let Some(dir) = sightline_tests::shared_maps() else {
         eprintln!("note: real maps not found (set SIGHTLINE_MAPS); the damaged-file check is not run");
         return;
     };

@@ -7,7 +7,7 @@ use glam::DVec3;
 use sightline_compiler::mesh::Mesh;
 use sightline_compiler::{CompileOptions, Compiled, NoProgress, Source, compile};
 use sightline_formats::Contents;
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 use sightline_validate::bsp::BspTree;
 use sightline_validate::pvs::level_pvs;
 use sightline_validate::{Options, OracleChoice, validate};

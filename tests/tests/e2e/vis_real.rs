@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 
 use sightline::cmd::vis::{Args, VisFlags};
 use sightline_compiler::vis::{self, VisError, VisOptions, VisPhase, VisProgress, VisResult};

@@ -22,8 +22,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use sightline_formats::prt::{self, PrtFormat};
-use sightline_formats::rng::SplitMix64 as Rng;
 use sightline_formats::{bsp, slvl};
+use sightline_job::rng::SplitMix64 as Rng;
 use sightline_tests::mutate;
 
 /// A run taking longer than this is a hang.

@@ -34,7 +34,7 @@ pub mod twins;
 mod union_find;
 pub mod update;
 
-pub use sightline_formats::progress::{NoProgress, Progress};
+pub use sightline_job::progress::{NoProgress, Progress};
 
 use glam::Vec3;
 use rayon::prelude::*;

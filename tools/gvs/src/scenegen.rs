@@ -96,7 +96,7 @@ pub fn generate(kind: Kind, size: u32, seed: u64) -> Scene {
 }
 
 /// The generators' random stream: the project's SplitMix64.
-pub use sightline_formats::rng::SplitMix64 as Rng;
+pub use sightline_job::rng::SplitMix64 as Rng;
 
 /// Push the two triangles of the quad `a b c d` (in order around it).
 fn quad(out: &mut Vec<[Vec3; 3]>, a: Vec3, b: Vec3, c: Vec3, d: Vec3) {

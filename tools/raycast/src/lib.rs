@@ -1195,9 +1195,9 @@ mod tests {
         }
     }
 
-    /// Floats in `[0, 1)` from a seeded [`SplitMix64`](sightline_formats::rng::SplitMix64).
+    /// Floats in `[0, 1)` from a seeded [`SplitMix64`](sightline_job::rng::SplitMix64).
     fn unit_rng(seed: u64) -> impl FnMut() -> f32 {
-        let mut r = sightline_formats::rng::SplitMix64::new(seed);
+        let mut r = sightline_job::rng::SplitMix64::new(seed);
         move || r.unit_f32()
     }
 }

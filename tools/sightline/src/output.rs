@@ -8,7 +8,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use sightline_formats::atomic::{Durability, write_file_with};
+use sightline_job::atomic::{Durability, write_file_with};
 
 /// Writes `bytes` to `path` atomically, with the durability of work started at `started`.
 pub fn write(path: &Path, bytes: &[u8], started: Instant) -> anyhow::Result<()> {

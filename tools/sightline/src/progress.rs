@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use sightline_formats::progress::Progress;
+use sightline_job::progress::Progress;
 
 /// A bar of `len` steps labelled `phase`; hidden when `quiet` or when stderr is not a terminal.
 pub fn bar(phase: &str, len: u64, quiet: bool) -> ProgressBar {

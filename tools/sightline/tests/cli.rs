@@ -182,7 +182,7 @@ fn a_pvs_that_hides_a_visible_leaf_is_a_finding_exit_1() {
 /// `NAME` in the shared maps folder (`$SIGHTLINE_MAPS`, else `../shared/maps`), or `None` with a
 /// note when it is absent.
 fn shared_map(name: &str) -> Option<PathBuf> {
-    let path = sightline_formats::shared_maps::dir().map(|d| d.join(name)).filter(|p| p.is_file());
+    let path = sightline_tests::shared_maps().map(|d| d.join(name)).filter(|p| p.is_file());
     if path.is_none() {
         eprintln!("note: shared map {name} not found (set SIGHTLINE_MAPS); skipped");
     }

@@ -20,7 +20,7 @@ fn bin() -> Command {
 }
 
 fn testmaps() -> Option<PathBuf> {
-    let dir = sightline_formats::shared_maps::dir()?.join("ericw-testmaps");
+    let dir = sightline_tests::shared_maps()?.join("ericw-testmaps");
     if dir.join("assertions.json").is_file() {
         Some(dir)
     } else {

@@ -41,7 +41,7 @@ pub mod rng;
 pub mod sample;
 pub mod shapes;
 
-pub use sightline_formats::progress::{NoProgress, Progress};
+pub use sightline_job::progress::{NoProgress, Progress};
 
 use std::collections::BTreeMap;
 use std::time::Instant;

@@ -16,7 +16,7 @@
 //! `16k + 8` without ever landing on a brush face. Output is deterministic for a given
 //! [`MapGenParams`] (its own SplitMix64 generator, fixed iteration order).
 
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 
 use std::fmt::Write as _;
 

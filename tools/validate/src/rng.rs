@@ -3,7 +3,7 @@
 //! only the validator needs, a direction uniform on the sphere.
 
 use glam::DVec3;
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 
 /// The validator's random stream: the project's SplitMix64, keyed by `(seed, a, b)`.
 #[derive(Debug, Clone)]

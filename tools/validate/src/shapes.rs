@@ -17,7 +17,7 @@ use std::fmt::Write as _;
 use glam::DVec3;
 use sightline_formats::geom::Winding;
 use sightline_formats::prt::{PortalFile, PrtPortal};
-use sightline_formats::rng::SplitMix64;
+use sightline_job::rng::SplitMix64;
 
 use crate::mapgen::{IBox, WALL, write_box};
 

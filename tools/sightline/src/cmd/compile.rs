@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
-use sightline_formats::atomic::check_writable;
+use sightline_job::atomic::check_writable;
 
 use crate::cli::Outcome;
 use crate::cmd::vis::VisFlags;

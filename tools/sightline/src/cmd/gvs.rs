@@ -631,7 +631,7 @@ fn write_level(path: &Path, level: &sightline_formats::Level) -> anyhow::Result<
     sightline_formats::slvl::validate(level)?;
     let bytes =
         sightline_formats::slvl::write(level, &sightline_formats::slvl::WriteOptions { compress: true });
-    sightline_formats::atomic::write_file_atomic(path, &bytes)?;
+    sightline_job::atomic::write_file_atomic(path, &bytes)?;
     Ok(())
 }
 

@@ -88,11 +88,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         .with_context(|| format!("{}: cannot rebuild portals from its tree", path.display()))?;
     let build_seconds = t1.elapsed().as_secs_f64();
     let output = args.output.clone().unwrap_or_else(|| path.with_extension("prt"));
-    sightline_formats::atomic::write_file_atomic(
-        &output,
-        sightline_formats::prt::write(&built.prt).as_bytes(),
-    )
-    .with_context(|| format!("cannot write {}", output.display()))?;
+    sightline_job::atomic::write_file_atomic(&output, sightline_formats::prt::write(&built.prt).as_bytes())
+        .with_context(|| format!("cannot write {}", output.display()))?;
     let report = Report {
         input: path.display().to_string(),
         output: output.display().to_string(),

@@ -131,7 +131,7 @@ impl Image {
         let mut bytes = Vec::new();
         self.encode(&mut bytes)
             .map_err(|source| PngError::EncodeFile { path: path.to_path_buf(), source })?;
-        sightline_formats::atomic::write_file_atomic(path, &bytes)
+        sightline_job::atomic::write_file_atomic(path, &bytes)
             .map_err(|source| PngError::Write { path: path.to_path_buf(), source })
     }
 }
