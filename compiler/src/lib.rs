@@ -12,6 +12,7 @@ pub mod bsp;
 pub mod bsp_portals;
 pub mod contents;
 pub mod csg;
+pub mod dropin;
 pub mod emit;
 mod load;
 pub mod memory;

@@ -58,6 +58,16 @@ impl Ambient {
     pub fn index(self) -> usize {
         self as usize
     }
+
+    /// The sound's name in reports: `water`, `sky`, `slime`, `lava`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Water => "water",
+            Self::Sky => "sky",
+            Self::Slime => "slime",
+            Self::Lava => "lava",
+        }
+    }
 }
 
 /// True when `name` starts with `prefix`, ASCII case-insensitive.

@@ -28,12 +28,15 @@
 //!   surfedges (`e >= 0`: `edges[e].0`; `e < 0`: `edges[-e].1`), run clockwise seen from the side
 //!   it faces.
 
+mod compiled;
 mod convert;
+mod lumps;
 mod parse;
 pub mod q2;
 pub mod q3;
 mod write;
 
+pub use compiled::{CompiledMap, Game, Parsed};
 pub use convert::to_level;
 pub use write::{check_vis_layout, write_vis_rows, write_with_visdata};
 

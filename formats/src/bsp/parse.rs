@@ -1,5 +1,6 @@
 //! Reading and validating BSP lumps.
 
+use super::lumps::{invalid, lump_records, read_lump_table};
 use super::{
     Bsp, BspError, BspFace, BspLeaf, BspModel, BspNode, BspPlane, BspVersion, HEADER_BYTES, LumpEntry,
     MipTex, NUM_LUMPS, TexInfo, lump,
@@ -19,31 +20,6 @@ fn records<'a>(
     size: usize,
 ) -> Result<impl Iterator<Item = (usize, Rec<'a>)>, BspError> {
     lump_records(bytes, lumps, &lump::NAMES, index, size)
-}
-
-/// As [`records`], for any Quake-family lump table (`names` names the lumps in errors).
-pub(crate) fn lump_records<'a, const N: usize>(
-    bytes: &'a [u8],
-    lumps: &[LumpEntry; N],
-    names: &[&'static str; N],
-    index: usize,
-    size: usize,
-) -> Result<impl Iterator<Item = (usize, Rec<'a>)> + use<'a, N>, BspError> {
-    let entry = lumps[index];
-    if !entry.length.is_multiple_of(size) {
-        return Err(BspError::LumpSize {
-            offset: entry.offset,
-            name: names[index],
-            length: entry.length,
-            record: size,
-        });
-    }
-    let data = bytes.get(entry.offset..entry.end()).unwrap_or_default();
-    Ok(data.chunks_exact(size).enumerate().map(move |(i, chunk)| (entry.offset + i * size, Rec::new(chunk))))
-}
-
-pub(crate) fn invalid(offset: usize, what: impl Into<String>, detail: impl Into<String>) -> BspError {
-    BspError::Invalid { offset, what: what.into(), detail: detail.into() }
 }
 
 /// Checks that `first..first + count` lies within `0..len`.
@@ -93,7 +69,7 @@ pub(super) fn non_negative(
 }
 
 pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_LUMPS]), BspError> {
-    if super::q2::is_q2(bytes) {
+    if super::lumps::is_ibsp(bytes) {
         let version = bytes.get(4..8).map_or(0, |v| i32::from_le_bytes([v[0], v[1], v[2], v[3]]));
         return Err(BspError::Quake2 { version });
     }
@@ -105,63 +81,6 @@ pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_L
     let version =
         BspVersion::ALL.into_iter().find(|v| v.magic() == magic).ok_or(BspError::Version { magic })?;
     Ok((version, read_lump_table(bytes, &mut head, &lump::NAMES)?))
-}
-
-/// The lump table of a Quake-family BSP header at `head`'s position: per lump an `i32` offset and
-/// length, each lump inside the file (`bytes`). `names` names the lumps in errors.
-/// Reads an `IBSP` header (Quake 2 and Quake 3 share its shape): the magic, a version from
-/// `versions` (named as `expected` in the error), then the lump table of `names.len()` lumps,
-/// each inside the file. `game` names the header in errors. Returns the version and the lumps.
-pub(crate) fn read_ibsp_header<const N: usize>(
-    bytes: &[u8],
-    game: &str,
-    versions: &[i32],
-    expected: &str,
-    names: &[&'static str; N],
-) -> Result<(i32, [LumpEntry; N]), BspError> {
-    let header_bytes = 8 + 8 * N;
-    let what = format!("{game} header");
-    if bytes.len() < header_bytes {
-        return Err(invalid(0, what, format!("file is {} bytes, shorter than {header_bytes}", bytes.len())));
-    }
-    let mut head = Rec::new(bytes);
-    let magic: [u8; 4] = head.take();
-    if magic != *b"IBSP" {
-        return Err(BspError::Version { magic });
-    }
-    let version = head.i32();
-    if !versions.contains(&version) {
-        return Err(invalid(4, what, format!("version {version}, expected {expected}")));
-    }
-    Ok((version, read_lump_table(bytes, &mut head, names)?))
-}
-
-pub(crate) fn read_lump_table<const N: usize>(
-    bytes: &[u8],
-    head: &mut Rec<'_>,
-    names: &[&'static str; N],
-) -> Result<[LumpEntry; N], BspError> {
-    let mut lumps = [LumpEntry::default(); N];
-    for (i, entry) in lumps.iter_mut().enumerate() {
-        let header_offset = head.pos;
-        let (offset, length) = (head.i32(), head.i32());
-        let bounds_err = || BspError::LumpBounds {
-            header_offset,
-            lump: i,
-            name: names[i],
-            offset: offset.into(),
-            length: length.into(),
-            file_len: bytes.len(),
-        };
-        let (Ok(off), Ok(len)) = (usize::try_from(offset), usize::try_from(length)) else {
-            return Err(bounds_err());
-        };
-        if off.checked_add(len).is_none_or(|end| end > bytes.len()) {
-            return Err(bounds_err());
-        }
-        *entry = LumpEntry { offset: off, length: len };
-    }
-    Ok(lumps)
 }
 
 fn read_textures(bytes: &[u8], entry: LumpEntry) -> Result<Vec<Option<MipTex>>, BspError> {

@@ -14,7 +14,7 @@
 //! - A leaf with cluster `-1` (solid) has no row. Leaves are 28-byte records: `int32 contents`,
 //!   `int16 cluster`, `int16 area`, bounds and indices (not decoded here).
 
-use super::parse::invalid;
+use super::lumps::invalid;
 use super::{BspError, LumpEntry};
 
 mod level;
@@ -173,7 +173,7 @@ impl Q2Bsp {
 
 /// Reads the header: magic, version 38 and 19 lumps inside the file.
 pub fn read_header(bytes: &[u8]) -> Result<[LumpEntry; NUM_LUMPS], BspError> {
-    let (_, lumps) = super::parse::read_ibsp_header(bytes, "Quake 2", &[VERSION], "38", &lump::NAMES)?;
+    let (_, lumps) = super::lumps::read_ibsp_header(bytes, "Quake 2", &[VERSION], "38", &lump::NAMES)?;
     Ok(lumps)
 }
 
@@ -182,7 +182,7 @@ pub fn read(bytes: &[u8]) -> Result<Q2Bsp, BspError> {
     let lumps = read_header(bytes)?;
     let mut leaf_clusters = Vec::new();
     for (i, (at, mut r)) in
-        super::parse::lump_records(bytes, &lumps, &lump::NAMES, lump::LEAVES, LEAF_BYTES)?.enumerate()
+        super::lumps::lump_records(bytes, &lumps, &lump::NAMES, lump::LEAVES, LEAF_BYTES)?.enumerate()
     {
         let _contents = r.i32();
         let c = i32::from(r.i16());
@@ -294,7 +294,7 @@ pub fn vis_lump<P: AsRef<[u8]>, H: AsRef<[u8]>>(pvs: &[P], phs: &[H]) -> Result<
 /// Checks that the visibility lump can be replaced: when not empty it lies past the header and
 /// shares no byte with another non-empty lump; when empty it is not strictly inside one.
 pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> {
-    super::write::check_lump_apart(lumps, lump::VISIBILITY, HEADER_BYTES, &lump::NAMES)
+    super::lumps::check_lump_apart(lumps, lump::VISIBILITY, HEADER_BYTES, &lump::NAMES)
 }
 
 /// Returns `original` with its visibility lump replaced by `vis` (a whole lump, as [`vis_lump`]
@@ -305,7 +305,7 @@ pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> 
 pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, BspError> {
     let lumps = read_header(original)?;
     check_vis_layout(&lumps)?;
-    let (out, _) = super::write::splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, vis)?;
+    let (out, _) = super::lumps::splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, vis)?;
     read(&out)?;
     Ok(out)
 }

@@ -27,7 +27,7 @@
 //!   brush ranges, not decoded here); planes 16 (`float normal[3], dist`); models 40 (`float
 //!   mins[3], maxs[3]`, then surface and brush ranges).
 
-use super::parse::invalid;
+use super::lumps::invalid;
 use super::{BspError, LumpEntry};
 use crate::bits;
 use crate::le::Rec;
@@ -206,7 +206,7 @@ impl Q3Bsp {
 
 /// Reads the header: magic, version 46 or 47 and 17 lumps inside the file.
 pub fn read_header(bytes: &[u8]) -> Result<(i32, [LumpEntry; NUM_LUMPS]), BspError> {
-    super::parse::read_ibsp_header(bytes, "Quake 3", &VERSIONS, "46 or 47", &lump::NAMES)
+    super::lumps::read_ibsp_header(bytes, "Quake 3", &VERSIONS, "46 or 47", &lump::NAMES)
 }
 
 /// The records of lump `index`, each with its byte offset; the length must be a multiple of
@@ -217,7 +217,7 @@ fn records<'a>(
     index: usize,
     size: usize,
 ) -> Result<impl Iterator<Item = (usize, Rec<'a>)>, BspError> {
-    super::parse::lump_records(bytes, lumps, &lump::NAMES, index, size)
+    super::lumps::lump_records(bytes, lumps, &lump::NAMES, index, size)
 }
 
 fn ivec3(r: &mut Rec<'_>) -> [i32; 3] {
@@ -389,7 +389,7 @@ pub fn vis_lump(num_clusters: usize, rows: &[u8]) -> Result<Vec<u8>, BspError> {
 
 /// Checks that the visibility lump can be replaced (see [`super::q2::check_vis_layout`]).
 pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> {
-    super::write::check_lump_apart(lumps, lump::VISIBILITY, HEADER_BYTES, &lump::NAMES)
+    super::lumps::check_lump_apart(lumps, lump::VISIBILITY, HEADER_BYTES, &lump::NAMES)
 }
 
 /// Returns `original` with its visibility lump replaced by `vis` (a whole lump, as [`vis_lump`]
@@ -398,7 +398,7 @@ pub fn check_vis_layout(lumps: &[LumpEntry; NUM_LUMPS]) -> Result<(), BspError> 
 pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, BspError> {
     let (_, lumps) = read_header(original)?;
     check_vis_layout(&lumps)?;
-    let (out, _) = super::write::splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, vis)?;
+    let (out, _) = super::lumps::splice_lump(original, &lumps, lump::VISIBILITY, HEADER_BYTES, vis)?;
     read(&out)?;
     Ok(out)
 }

@@ -32,7 +32,8 @@
 use super::{LEAF_BYTES, Q2Bsp, lump};
 use crate::bsp::BspError;
 use crate::bsp::convert::Polygons;
-use crate::bsp::parse::{check_index, check_range, invalid, lump_records, non_negative};
+use crate::bsp::lumps::{invalid, lump_records};
+use crate::bsp::parse::{check_index, check_range, non_negative};
 use crate::level::{Contents, FaceDraw, Leaf, Level, Model, Node};
 use crate::tree_check::find_cycle;
 

@@ -1,0 +1,247 @@
+//! The drop-in vis: any compiled map of the Quake family, its portals given (the `.prt` its
+//! compiler wrote) or rebuilt from its tree, to a PVS (with the PHS, ambient levels and far plane
+//! as the game has them) written back into the `.bsp`, into an external `.vis` file, or, for a
+//! portal file alone, into `NAME.vis`. One route for every game, as the reference vis tools run:
+//! an editor plugin or a build farm calls [`run`] (or [`pack`] for a folder) and gets the file
+//! written atomically and a [`Report`].
+//!
+//! | input | portals | written | module |
+//! |---|---|---|---|
+//! | Quake BSP29/BSP2/BSP2-RMQ, Half-Life BSP30 | `.prt` beside it, or its tree | visdata and ambient levels into the `.bsp`, or an external `.vis` | [`quake`] |
+//! | a `.prt` alone | the file | `NAME.vis` ([`sightline_formats::visfile`]) | [`quake`] |
+//! | Quake 2 `IBSP` 38 | qbsp's PRT1 over clusters | PVS and PHS lump (or the PHS alone) | [`quake2`] |
+//! | Quake 3 `IBSP` 46/47 | q3map2's portal file | uncompressed cluster rows | [`quake3`] |
+//!
+//! The game is found once from the file's first bytes ([`sightline_formats::bsp::Game::sniff`]).
+//! Options a game cannot use are refused before any work, naming the file.
+
+pub mod pack;
+pub mod quake;
+pub mod quake2;
+pub mod quake3;
+mod report;
+
+use std::io;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use sightline_formats::bsp::{BspError, Game};
+use sightline_job::atomic::{Durability, write_file_with};
+use thiserror::Error;
+
+use crate::bsp_portals::BspPortalOptions;
+use crate::vis::{VisError, VisOptions, VisProgress};
+use crate::visdata::VisdataError;
+
+pub use report::{PackReport, PackedMap, Q2Report, Q3Report, QuakeReport, Report, SkippedMap};
+
+/// How to vis a compiled map. `Default` is Quake's full vis with every sound on, portals read from
+/// beside the `.bsp`, written back into it.
+#[derive(Debug, Clone, Default)]
+pub struct DropInOptions {
+    /// The flow's options (level, threads, state file, limits, cancel flag).
+    pub vis: VisOptions,
+    /// Clusters whose boxes are farther apart than this many units stop seeing each other
+    /// (`None` or 0: off). Quake 1, Half-Life and Quake 2.
+    pub farplane: Option<f64>,
+    /// Ambient sounds switched off, indexed by [`sightline_formats::texture::Ambient::index`].
+    pub ambient_off: [bool; 4],
+    /// Quake 2 only: recompute the PHS from the PVS in the file, keeping every PVS byte.
+    pub phs_only: bool,
+    /// Rebuild the portals from the `.bsp`'s tree instead of reading the `.prt` beside it (Quake 1
+    /// and Half-Life).
+    pub portals_from_tree: Option<BspPortalOptions>,
+    /// Start afresh: delete the state file ([`VisOptions::state`]) before vis instead of resuming
+    /// from it.
+    pub restart: bool,
+    /// Write the PVS as an external `.vis` record into this file and leave the `.bsp` unchanged
+    /// (BSP29 only, as engines load them).
+    pub external_vis: Option<PathBuf>,
+}
+
+impl DropInOptions {
+    /// The far plane distance when one is on.
+    pub fn farplane(&self) -> Option<f64> {
+        self.farplane.filter(|&d| d > 0.0)
+    }
+}
+
+/// What the run reports back while it works.
+#[derive(Clone, Copy)]
+pub struct Hooks<'a> {
+    /// Vis progress ([`crate::vis::run`]'s reports).
+    pub progress: &'a (dyn Fn(VisProgress) + Sync),
+    /// A warning about the input that does not stop the run (said when found).
+    pub warn: &'a dyn Fn(&str),
+}
+
+impl std::fmt::Debug for Hooks<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Hooks")
+    }
+}
+
+impl Hooks<'_> {
+    /// Hooks that report nothing.
+    pub fn silent() -> Hooks<'static> {
+        Hooks { progress: &|_| {}, warn: &|_| {} }
+    }
+}
+
+/// Why the drop-in vis did not write its output. Every error names the file it is about.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum DropInError {
+    /// An option this input cannot use, or a file that cannot serve (the text says which).
+    #[error("{}: {why}", path.display())]
+    Refused {
+        /// The input.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
+    /// A file could not be read.
+    #[error("cannot read {}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// A compiled map is malformed or cannot take the visibility.
+    #[error("{}", path.display())]
+    Bsp {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: BspError,
+    },
+    /// Reading the vis input or laying out its rows failed (the error names the file).
+    #[error(transparent)]
+    Visdata(#[from] VisdataError),
+    /// The rows could not be laid out for the file (for example an external `.vis` record).
+    #[error("{}", path.display())]
+    At {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        #[source]
+        source: VisdataError,
+    },
+    /// The portal file does not parse (the error names the file).
+    #[error(transparent)]
+    Prt(#[from] sightline_formats::prt::PrtError),
+    /// Vis itself failed or was stopped ([`VisError::Interrupted`]).
+    #[error("{}", path.display())]
+    Vis {
+        /// The input.
+        path: PathBuf,
+        /// What happened.
+        #[source]
+        source: VisError,
+    },
+    /// The output could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+}
+
+impl DropInError {
+    /// The vis error behind this one, if vis itself stopped it (for example
+    /// [`VisError::Interrupted`]).
+    pub fn vis(&self) -> Option<&VisError> {
+        match self {
+            Self::Vis { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+
+    pub(crate) fn refused(path: &Path, why: impl Into<String>) -> Self {
+        Self::Refused { path: path.into(), why: why.into() }
+    }
+
+    pub(crate) fn bsp(path: &Path) -> impl FnOnce(BspError) -> Self + '_ {
+        move |source| Self::Bsp { path: path.into(), source }
+    }
+
+    pub(crate) fn vis_at(path: &Path) -> impl FnOnce(VisError) -> Self + '_ {
+        move |source| Self::Vis { path: path.into(), source }
+    }
+}
+
+/// Vis of the compiled map or portal file at `path` (see the module docs), written atomically;
+/// `started` is when the caller's work began (reports count from it, and the output is flushed to
+/// disk when the work took long enough to matter).
+pub fn run(
+    path: &Path,
+    opts: &DropInOptions,
+    hooks: Hooks<'_>,
+    started: Instant,
+) -> Result<Report, DropInError> {
+    match game_of(path) {
+        Some(Game::Quake3) => quake3::run(path, opts, hooks, started).map(Report::Quake3),
+        Some(Game::Quake2) => quake2::run(path, opts, hooks, started).map(Report::Quake2),
+        _ => quake::run(path, opts, hooks, started).map(Report::Quake),
+    }
+}
+
+/// Vis of every `.bsp` in the folder `dir` into one external `.vis` pack at `out` (see [`pack`]).
+pub use pack::run as pack;
+
+/// The game of the file at `path` from its first 8 bytes, or `None` when it is shorter, cannot be
+/// read, or is no compiled map (a portal file); the readers report those properly later.
+pub fn game_of(path: &Path) -> Option<Game> {
+    use std::io::Read;
+    let mut head = [0u8; 8];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).ok()?;
+    Game::sniff(&head)
+}
+
+/// Reads the file at `path` whole.
+pub(crate) fn read(path: &Path) -> Result<Vec<u8>, DropInError> {
+    std::fs::read(path).map_err(|source| DropInError::Read { path: path.into(), source })
+}
+
+/// Writes `bytes` to `path` atomically, with the durability of work started at `started`.
+pub(crate) fn write(path: &Path, bytes: &[u8], started: Instant) -> Result<(), DropInError> {
+    write_file_with(path, bytes, Durability::for_work(started.elapsed()))
+        .map_err(|source| DropInError::Write { path: path.into(), source })
+}
+
+/// Runs vis on `prt` for the input at `path` (after deleting the state file when
+/// [`DropInOptions::restart`]): errors name it.
+pub(crate) fn flow(
+    prt: &sightline_formats::prt::PortalFile,
+    opts: &DropInOptions,
+    hooks: Hooks<'_>,
+    path: &Path,
+) -> Result<crate::vis::VisResult, DropInError> {
+    if opts.restart
+        && let Some(state) = &opts.vis.state
+    {
+        match std::fs::remove_file(state) {
+            Ok(()) => {}
+            Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+            Err(e) => return Err(DropInError::refused(state, format!("cannot delete it (--no-state): {e}"))),
+        }
+    }
+    crate::vis::run(prt, &opts.vis, hooks.progress).map_err(DropInError::vis_at(path))
+}
+
+/// Every cluster's row of `result` in Quake's byte layout, back to back (Quake 2 and 3 rows).
+pub(crate) fn cluster_rows(result: &crate::vis::VisResult, clusters: usize) -> Vec<u8> {
+    let mut rows = Vec::with_capacity(clusters * sightline_formats::bits::bytes::len(clusters));
+    let mut row = Vec::new();
+    for c in 0..clusters {
+        result.leaf_row_bytes(c, &mut row);
+        rows.extend_from_slice(&row);
+    }
+    rows
+}

@@ -1,0 +1,161 @@
+//! The drop-in vis of a Quake 1 or Half-Life `.bsp` (BSP29, BSP2, BSP2-RMQ, BSP30), or of a
+//! portal file alone.
+//!
+//! A `.bsp` takes its portals from the `.prt` beside it ([`VisInput::read`]) or rebuilt from its
+//! tree ([`VisInput::from_bsp_tree`]); the rows, with ambient levels, go back into the `.bsp`
+//! ([`visdata::write_into_bsp_with`]) or, with [`DropInOptions::external_vis`], into an external
+//! `.vis` record engines load beside a BSP29 map ([`visdata::vispatch_record`]). A portal file
+//! alone gives `NAME.vis` ([`Rows::vis_file`]). The far plane needs the `.bsp` (its leaf bounds).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use sightline_formats::bsp::BspVersion;
+use sightline_formats::texture::Ambient;
+use sightline_formats::vispatch::{self, VisPatchRecord};
+
+use super::{DropInError, DropInOptions, Hooks, QuakeReport};
+use crate::bsp_portals::BspPortalStats;
+use crate::vis;
+use crate::visdata::{self, Rows, VisInput};
+
+/// Runs the drop-in vis on the Quake 1 or Half-Life `.bsp`, or the portal file, at `path`.
+pub fn run(
+    path: &Path,
+    opts: &DropInOptions,
+    hooks: Hooks<'_>,
+    t0: Instant,
+) -> Result<QuakeReport, DropInError> {
+    if opts.phs_only {
+        return Err(DropInError::refused(path, "--phs-only needs a Quake 2 .bsp (IBSP 38)"));
+    }
+    let (input, rebuilt) = read_input(path, opts)?;
+    let farplane = opts.farplane();
+    if farplane.is_some() && input.bsp.is_none() {
+        return Err(DropInError::refused(
+            path,
+            "--farplane needs the .bsp (its leaf bounds bound what each cluster holds); run vis on the .bsp",
+        ));
+    }
+    let ambient = input.ambient_options(opts.ambient_off);
+    let texinfo_side = input.bsp.as_ref().and_then(|b| b.texinfo_json.as_ref());
+    if let Some(side) = texinfo_side.filter(|s| !s.matches) {
+        (hooks.warn)(&format!(
+            "{} names texinfo {} but the BSP has {}: it belongs to another compile, its flags are ignored",
+            side.path.display(),
+            side.flags.max_texinfo.unwrap_or(0),
+            input.bsp.as_ref().map_or(0, |b| b.bsp.texinfo.len())
+        ));
+    }
+    let read_seconds = t0.elapsed().as_secs_f64();
+    let mut result = super::flow(&input.prt, opts, hooks, path)?;
+    let mut farplane_hidden_pairs = 0;
+    if let (Some(d), Some(b)) = (farplane, &input.bsp) {
+        let boxes = visdata::cluster_boxes(&b.bsp, &input.prt);
+        farplane_hidden_pairs =
+            vis::farplane::cull(&mut result, &boxes, d).map_err(DropInError::vis_at(path))?;
+    }
+    let t1 = Instant::now();
+    let rows = Rows::new(&result);
+    let output = match (&input.bsp, &opts.external_vis) {
+        (Some(b), Some(out)) => {
+            let record =
+                visdata::vispatch_record(&map_name(path)?, &b.bytes, &b.bsp, &result, &rows, &ambient)
+                    .map_err(|source| DropInError::At { path: path.into(), source })?;
+            write_pack(out, &[record], t0)?;
+            out.clone()
+        }
+        (Some(b), None) => {
+            let out = visdata::write_into_bsp_with(&b.bytes, &b.bsp, &result, &rows, &ambient)?;
+            super::write(path, &out, t0)?;
+            path.to_path_buf()
+        }
+        (None, _) => {
+            let vis_path = path.with_extension("vis");
+            super::write(&vis_path, &rows.vis_file()?, t0)?;
+            vis_path
+        }
+    };
+    let used_side = texinfo_side.filter(|s| s.matches);
+    Ok(QuakeReport {
+        input: path.display().to_string(),
+        output: output.display().to_string(),
+        prt_format: input.prt.format.header().to_string(),
+        portals_rebuilt: rebuilt,
+        vis: result.stats.clone(),
+        compressed_bytes: rows.data.len(),
+        farplane,
+        farplane_hidden_pairs,
+        ambient_off: [Ambient::Water, Ambient::Sky, Ambient::Slime, Ambient::Lava]
+            .into_iter()
+            .filter(|a| ambient.off[a.index()])
+            .map(Ambient::name)
+            .collect(),
+        texinfo_json: used_side.map(|s| s.path.display().to_string()),
+        noambient_texinfos: used_side.map_or(0, |s| s.flags.noambient.len()),
+        read_seconds,
+        write_seconds: t1.elapsed().as_secs_f64(),
+        total_seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// True when `path` is named `.bsp` (any case).
+pub(crate) fn is_bsp(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp"))
+}
+
+/// The vis input of `path`: its `.prt`, or its portals rebuilt from its tree (with their counts).
+/// With an external `.vis` the `.bsp` must be BSP29 and its name fit a record; both are checked
+/// here, before any vis work.
+pub(crate) fn read_input(
+    path: &Path,
+    opts: &DropInOptions,
+) -> Result<(VisInput, Option<BspPortalStats>), DropInError> {
+    if (opts.portals_from_tree.is_some() || opts.external_vis.is_some()) && !is_bsp(path) {
+        return Err(DropInError::refused(path, "--portals-from-bsp and --external-vis need a .bsp"));
+    }
+    if opts.external_vis.is_some() {
+        map_name(path)?;
+    }
+    let (input, stats) = match opts.portals_from_tree {
+        Some(tree) => {
+            let (input, stats) = VisInput::from_bsp_tree(path, tree)?;
+            (input, Some(stats))
+        }
+        None => (VisInput::read(path)?, None),
+    };
+    if opts.external_vis.is_some()
+        && let Some(b) = &input.bsp
+        && b.bsp.version != BspVersion::Bsp29
+    {
+        return Err(DropInError::refused(
+            path,
+            format!("{} file: engines load external .vis files for BSP29 maps only", b.bsp.version.name()),
+        ));
+    }
+    Ok((input, stats))
+}
+
+/// The record name of the map at `path`: its file name, which must fit a record.
+pub(crate) fn map_name(path: &Path) -> Result<String, DropInError> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    if !vispatch::valid_name(&name) {
+        return Err(DropInError::refused(
+            path,
+            format!(
+                "an external .vis names its map in at most {} bytes; `{name}` does not fit",
+                vispatch::NAME_BYTES - 1
+            ),
+        ));
+    }
+    Ok(name)
+}
+
+/// Writes an external `.vis` pack of `records` to `out`.
+pub(crate) fn write_pack(out: &PathBuf, records: &[VisPatchRecord], t0: Instant) -> Result<(), DropInError> {
+    let bytes = vispatch::write(records).map_err(|e| DropInError::Write {
+        path: out.clone(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    })?;
+    super::write(out, &bytes, t0)
+}
