@@ -120,7 +120,7 @@ pub enum DropInError {
     },
     /// Reading the vis input or laying out its rows failed (the error names the file).
     #[error(transparent)]
-    Visdata(#[from] VisdataError),
+    Visdata(Box<VisdataError>),
     /// The rows could not be laid out for the file (for example an external `.vis` record).
     #[error("{}", path.display())]
     At {
@@ -128,7 +128,7 @@ pub enum DropInError {
         path: PathBuf,
         /// What failed.
         #[source]
-        source: VisdataError,
+        source: Box<VisdataError>,
     },
     /// The portal file does not parse (the error names the file).
     #[error(transparent)]
@@ -151,6 +151,12 @@ pub enum DropInError {
         #[source]
         source: io::Error,
     },
+}
+
+impl From<VisdataError> for DropInError {
+    fn from(e: VisdataError) -> Self {
+        Self::Visdata(Box::new(e))
+    }
 }
 
 impl DropInError {

@@ -71,7 +71,7 @@ pub fn run(
             format!("no .bsp in it could be vised; nothing written\n{}", why.join("\n")),
         ));
     }
-    write_pack(&out.to_path_buf(), &records, t0)?;
+    write_pack(out, &records, t0)?;
     report.output = Some(out.display().to_string());
     report.total_seconds = t0.elapsed().as_secs_f64();
     Ok(report)
@@ -115,6 +115,6 @@ fn pack_one(
     let rows = Rows::new(&result);
     let ambient = input.ambient_options(opts.ambient_off);
     let record = visdata::vispatch_record(&name, &b.bytes, &b.bsp, &result, &rows, &ambient)
-        .map_err(|source| DropInError::At { path: file.into(), source })?;
+        .map_err(|source| DropInError::At { path: file.into(), source: Box::new(source) })?;
     Ok((record, result))
 }

@@ -7,7 +7,7 @@
 //! `.vis` record engines load beside a BSP29 map ([`visdata::vispatch_record`]). A portal file
 //! alone gives `NAME.vis` ([`Rows::vis_file`]). The far plane needs the `.bsp` (its leaf bounds).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use sightline_formats::bsp::BspVersion;
@@ -61,7 +61,7 @@ pub fn run(
         (Some(b), Some(out)) => {
             let record =
                 visdata::vispatch_record(&map_name(path)?, &b.bytes, &b.bsp, &result, &rows, &ambient)
-                    .map_err(|source| DropInError::At { path: path.into(), source })?;
+                    .map_err(|source| DropInError::At { path: path.into(), source: Box::new(source) })?;
             write_pack(out, &[record], t0)?;
             out.clone()
         }
@@ -152,9 +152,9 @@ pub(crate) fn map_name(path: &Path) -> Result<String, DropInError> {
 }
 
 /// Writes an external `.vis` pack of `records` to `out`.
-pub(crate) fn write_pack(out: &PathBuf, records: &[VisPatchRecord], t0: Instant) -> Result<(), DropInError> {
+pub(crate) fn write_pack(out: &Path, records: &[VisPatchRecord], t0: Instant) -> Result<(), DropInError> {
     let bytes = vispatch::write(records).map_err(|e| DropInError::Write {
-        path: out.clone(),
+        path: out.to_path_buf(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
     })?;
     super::write(out, &bytes, t0)

@@ -7,6 +7,7 @@ use std::ffi::OsString;
 use clap::{Parser, Subcommand};
 
 use crate::cmd;
+use crate::outcome::Outcome;
 
 /// Sightline compiles Quake-style levels and answers "what can be seen from here".
 #[derive(Debug, Parser)]
@@ -38,15 +39,6 @@ pub enum Command {
     Bench(cmd::bench::Args),
     #[command(about = cmd::gvs::ABOUT)]
     Gvs(cmd::gvs::Args),
-}
-
-/// What a successful command found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
-    /// Nothing to report: exit 0.
-    Clean,
-    /// A finding such as a leak or a validation miss: exit 1.
-    Finding,
 }
 
 /// Parse the command line, run it, print any error, and return the process exit code.

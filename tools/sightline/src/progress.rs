@@ -64,7 +64,7 @@ impl Progress for Bars {
     }
 
     fn advance(&self, n: u64) {
-        crate::cmd::vis::announce_stop();
+        crate::interrupt::announce_stop();
         if self.quiet {
             return;
         }

@@ -19,7 +19,7 @@ use sightline_runtime::backend::{self, Backend, pvs::Pvs};
 use sightline_runtime::walk;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 
 /// What `sightline bench` does: its line in `sightline --help` and the first line of its own help.
 pub const ABOUT: &str = "Benchmark the runtime backends on random camera poses";

@@ -12,10 +12,10 @@ use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
 use sightline_job::atomic::check_writable;
 
-use crate::cli::Outcome;
-use crate::cmd::vis::VisFlags;
+use crate::outcome::Outcome;
 use crate::output;
 use crate::progress::Bars;
+use crate::vis_flags::VisFlags;
 
 /// What `sightline compile` does: its line in `sightline --help` and the first line of its own help.
 pub const ABOUT: &str = "Compile a `.map` or `.obj` into a level (`.slvl`) with portals and PVS";
@@ -103,7 +103,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             return Ok(Outcome::Finding);
         }
         Err(CompileError::Vis(VisError::Interrupted { done, total })) => {
-            anyhow::bail!("vis {}", crate::cmd::vis::interrupted(done, total, args.vis.state.is_some()))
+            anyhow::bail!("vis {}", crate::interrupt::interrupted(done, total, args.vis.state.is_some()))
         }
         // Vis's own message says what failed ("vis would need ..."): name the input before it.
         Err(CompileError::Vis(e)) => {

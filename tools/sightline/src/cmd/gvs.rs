@@ -26,7 +26,7 @@ use sightline_gvs::{
 };
 use sightline_raycast::Bvh;
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 use crate::progress::Bars;
 
 /// What `sightline gvs` does: its line in `sightline --help` and the first line of its own help.

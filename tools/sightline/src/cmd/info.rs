@@ -12,7 +12,7 @@ use serde::Serialize;
 use sightline_formats::geom::Aabb;
 use sightline_formats::{FileKind, bsp, map, obj, prt, slvl};
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 
 /// What `sightline info` does: its line in `sightline --help` and the first line of its own help.
 pub const ABOUT: &str = "Print counts and bounds of any file Sightline reads";

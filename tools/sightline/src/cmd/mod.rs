@@ -8,5 +8,3 @@ pub mod portals;
 pub mod render;
 pub mod validate;
 pub mod vis;
-pub mod vis_external;
-pub mod vis_q3;

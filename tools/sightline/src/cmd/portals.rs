@@ -11,7 +11,7 @@ use sightline_compiler::bsp_portals::{self, BspPortalOptions, BspPortalStats};
 use sightline_compiler::contents::LiquidSight;
 use sightline_formats::bsp;
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 
 /// What `sightline portals` does: its line in `sightline --help` and the first line of its own help.
 pub const ABOUT: &str = "Rebuild the portal file (`.prt`) of a compiled Quake `.bsp` from its tree";

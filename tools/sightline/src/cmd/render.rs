@@ -15,7 +15,7 @@ use glam::DVec3;
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_formats::Level;
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 use crate::progress::Bars;
 use sightline_validate::bsp::BspTree;
 use sightline_validate::render::plan::{PlanOptions, render_plan};

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 
-use crate::cli::Outcome;
+use crate::outcome::Outcome;
 use crate::progress::Bars;
 use sightline_validate::{self as validate, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
 
