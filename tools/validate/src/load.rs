@@ -46,24 +46,16 @@ pub enum LoadError {
     },
 }
 
-/// Read a Sightline `.slvl`, or a Quake-family `.bsp` as a [`Level`]: Quake 1 and Half-Life
-/// through [`bsp::to_level`] (one cluster per vis leaf), Quake 2 through [`bsp::q2::to_level`]
-/// (the file's clusters), Quake 3 through [`bsp::q3::to_level`] (its clusters, opaque leaves
-/// solid).
+/// Read a Sightline `.slvl`, or a compiled map of any Quake-family game as a [`Level`] through
+/// the one view every reader shares ([`bsp::CompiledMap::to_level`]: Quake 1 and Half-Life one
+/// cluster per vis leaf, Quake 2 and 3 the file's clusters).
 pub fn load_level(path: &Path) -> Result<Level, LoadError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
     match ext.as_str() {
         "bsp" => {
             let err = |source| LoadError::Bsp { path: path.to_path_buf(), source };
-            if bsp::q3::is_q3(&bytes) {
-                return Ok(bsp::q3::to_level(&bsp::q3::read(&bytes).map_err(err)?));
-            }
-            if bsp::q2::is_q2(&bytes) {
-                let file = bsp::q2::read(&bytes).map_err(err)?;
-                return bsp::q2::to_level(&bytes, &file).map_err(err);
-            }
-            Ok(bsp::to_level(&bsp::read(&bytes).map_err(err)?))
+            bsp::CompiledMap::read(bytes).and_then(|map| map.to_level()).map_err(err)
         }
         "slvl" => slvl::read(&bytes).map_err(|source| LoadError::Slvl { path: path.to_path_buf(), source }),
         _ => Err(LoadError::UnknownExtension { path: path.to_path_buf() }),
