@@ -126,8 +126,8 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
             leaves: prt.num_leaves,
             points: kept.map(|p| p.winding.points.len() as u128).sum(),
         };
-        let estimate = super::estimate(counts, opts).saturating_add(expanded);
-        let work = super::work(counts, opts);
+        let estimate = super::budget::estimate(counts, opts).saturating_add(expanded);
+        let work = super::budget::work(counts, opts);
         if estimate <= limits.memory && work <= limits.work {
             let coarse = build(prt, &new_id, groups);
             let stats = CoarsenStats {
