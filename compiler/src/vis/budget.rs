@@ -52,7 +52,7 @@ pub(super) fn batch(counts: Counts, opts: &VisOptions) -> usize {
 /// near it (they are the same with a limit of 64 and without one).
 pub const MAX_FLOW_DEPTH: usize = 64;
 
-/// An upper estimate of the bytes [`run`] allocates for `prt` with `opts`, computed from the
+/// An upper estimate of the bytes [`run`](super::run) allocates for `prt` with `opts`, computed from the
 /// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows; with a state file
 /// its log, `state::bytes_bound`, seed pairs included), the cluster × cluster matrices
 /// (certified seeds and the batch's pending ones, cluster rows, their snapshot and the

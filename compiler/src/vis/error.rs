@@ -26,7 +26,7 @@ pub enum VisError {
     /// The run would need more memory than is available or allowed; nothing was allocated.
     #[error("{what} would need {need_text} for {reason}: more than the {limit_text} {source_of_limit}; {hint}", need_text = crate::memory::format_size(*need), limit_text = crate::memory::format_size(*limit))]
     Memory {
-        /// Estimated bytes ([`memory_estimate`]).
+        /// Estimated bytes ([`memory_estimate`](super::memory_estimate)).
         need: u64,
         /// The limit in bytes.
         limit: u64,
@@ -39,12 +39,12 @@ pub enum VisError {
         /// What to do about it (rerun with `--coarsen`, or that coarsening did not help).
         hint: String,
     },
-    /// The run's [`work_estimate`] is over [`VisOptions::max_work`]; nothing was computed.
+    /// The run's [`work_estimate`](super::work_estimate) is over [`VisOptions::max_work`](super::VisOptions::max_work); nothing was computed.
     #[error(
         "vis would take an estimated {need} portal tests ({reason}): more than the {limit} {source_of_limit}; {hint}"
     )]
     Work {
-        /// Estimated portal tests ([`work_estimate`]).
+        /// Estimated portal tests ([`work_estimate`](super::work_estimate)).
         need: u64,
         /// The limit.
         limit: u64,

@@ -5,9 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use super::{VisError, run};
-
-/// Options of [`run`].
+/// Options of [`run`](super::run).
 #[derive(Debug, Clone)]
 pub struct VisOptions {
     /// Stop after base vis (`mightsee`), like the reference `-fast`.
@@ -20,27 +18,27 @@ pub struct VisOptions {
     /// depends on the order clusters are found in, and a seeded flow's row also holds portals
     /// into clusters only its cluster's other portals see).
     pub seeds: bool,
-    /// Worker threads; 0 uses every core, or one for a run estimated below [`SERIAL_WORK`].
+    /// Worker threads; 0 uses every core, or one for a run estimated below [`SERIAL_WORK`](super::SERIAL_WORK).
     /// The result is the same for any count.
     pub threads: usize,
     /// Checkpoint file: loaded when present (resume), written every `checkpoint_interval`.
     pub state: Option<PathBuf>,
     /// Time between checkpoints.
     pub checkpoint_interval: Duration,
-    /// Stop (with [`VisError::Interrupted`], after a checkpoint) once at least this many flow
+    /// Stop (with [`VisError::Interrupted`](super::VisError::Interrupted), after a checkpoint) once at least this many flow
     /// portals are finished: for tests of resuming.
     pub stop_after: Option<usize>,
     /// Stop the same way at the next batch boundary once this flag is set (for example by a
     /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
     pub cancel: Option<Arc<AtomicBool>>,
-    /// Refuse (with [`VisError::Memory`]) a run whose [`memory_estimate`] is above this many
+    /// Refuse (with [`VisError::Memory`](super::VisError::Memory)) a run whose [`memory_estimate`](super::memory_estimate) is above this many
     /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
     /// limit too.
     pub max_memory: Option<u64>,
-    /// Refuse (with [`VisError::Work`]) a run whose [`work_estimate`] is above this many portal
-    /// tests. With [`VisOptions::coarsen`] and no limit given, [`COARSEN_MAX_WORK`] applies.
+    /// Refuse (with [`VisError::Work`](super::VisError::Work)) a run whose [`work_estimate`](super::work_estimate) is above this many portal
+    /// tests. With [`VisOptions::coarsen`] and no limit given, [`COARSEN_MAX_WORK`](super::COARSEN_MAX_WORK) applies.
     pub max_work: Option<u64>,
-    /// Over either limit, merge clusters until both estimates fit ([`coarsen`]) instead of
+    /// Over either limit, merge clusters until both estimates fit ([`coarsen`](super::coarsen)) instead of
     /// refusing.
     pub coarsen: bool,
     /// Tests only: panic in the flow at this position of the processing order.

@@ -82,7 +82,7 @@ pub(super) fn flow_all(
 struct Rows {
     /// Per portal its final row once its batch is folded, else its `mightsee`.
     test: Vec<u64>,
-    /// Per cluster, the clusters known visible from it by a certified line ([`certify`]).
+    /// Per cluster, the clusters known visible from it by a certified line ([`certify`](super::certify)).
     seeds: seeds::Seeds,
     /// Flows folded in a row whose beam culls dropped nothing ([`flow::quiet_after`]).
     quiet: usize,

@@ -37,7 +37,7 @@ pub struct VisStats {
     pub chains: u64,
     /// Flow portals taken from a state file.
     pub resumed_portals: usize,
-    /// [`work_estimate`] of the input (before any merging), in portal tests.
+    /// [`work_estimate`](super::work_estimate) of the input (before any merging), in portal tests.
     pub work_estimate: u64,
     /// Seconds in base vis.
     pub base_seconds: f64,
@@ -45,7 +45,7 @@ pub struct VisStats {
     pub flow_seconds: f64,
     /// Seconds building cluster rows.
     pub rows_seconds: f64,
-    /// When clusters were merged to fit memory ([`VisOptions::coarsen`]): the rows are still
+    /// When clusters were merged to fit memory ([`VisOptions::coarsen`](super::VisOptions::coarsen)): the rows are still
     /// over the input's clusters, but looser than they allow.
     pub coarsened: Option<coarsen::CoarsenStats>,
 }
