@@ -92,14 +92,18 @@ fn compile_here(
     progress: &dyn Progress,
 ) -> Result<Compiled, CompileError> {
     let mut clock = Clock::new();
-    let (file, mut prep) = match source {
-        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress)?),
-        Source::Mesh { mesh, file } => (file.as_str(), mesh::prepare(mesh, file, progress)?),
+    // A mesh comes with its world tree prebuilt; a map builds its tree from brushes below.
+    let (file, mut prep, mesh_tree) = match source {
+        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress)?, None),
+        Source::Mesh { mesh, file } => {
+            let (prep, tree) = mesh::prepare(mesh, file, progress)?;
+            (file.as_str(), prep, Some(tree))
+        }
     };
     clock.lap("csg", progress);
 
     progress.begin("bsp", 1 + prep.submodels.len() as u64);
-    let (mut tree, bounds, world_bounds, cover) = match prep.mesh.take() {
+    let (mut tree, bounds, world_bounds, cover) = match mesh_tree {
         Some(m) => (m.tree, m.volume, m.world, Some(m.cover)),
         None => {
             let world =

@@ -256,7 +256,6 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         textures,
         surfaces,
         stats,
-        mesh: None,
         fill: true,
     })
 }

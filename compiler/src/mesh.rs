@@ -65,7 +65,11 @@ struct Poly {
     winding: Winding,
 }
 
-pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Result<Prepared, CompileError> {
+pub(crate) fn prepare(
+    mesh: &Mesh,
+    file: &str,
+    progress: &dyn Progress,
+) -> Result<(Prepared, MeshTree), CompileError> {
     progress.begin("csg", mesh.triangles.len() as u64);
     let mut planes = PlaneSet::new();
     let mut polys = Vec::with_capacity(mesh.triangles.len());
@@ -128,7 +132,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
             point(b)
         ));
     }
-    Ok(Prepared {
+    let prep = Prepared {
         planes,
         structural: Vec::new(),
         world_faces: faces,
@@ -138,9 +142,9 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         textures: vec!["mesh".to_string()],
         surfaces: vec![Surface { texture: 0, vectors: [[0.0; 4]; 2] }],
         stats,
-        mesh: Some(MeshTree { tree, volume: volume_box, world, cover }),
         fill: false,
-    })
+    };
+    Ok((prep, MeshTree { tree, volume: volume_box, world, cover }))
 }
 
 /// A mesh's tree before [`seal`] checks its solid cells.

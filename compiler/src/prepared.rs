@@ -1,11 +1,12 @@
-//! What loading a source (a `.map` in `load`, a mesh in `mesh`) hands the later phases.
+//! What loading a source (a `.map` in `load`, a mesh in `mesh`, which also hands over its
+//! prebuilt world tree) hands the later phases.
 
 use sightline_formats::PlaneSet;
 
 use crate::brush::Brush;
+use crate::csg;
 use crate::outside::Seed;
 use crate::report::Stats;
-use crate::{csg, mesh};
 
 /// The tree's box lies this many units beyond every brush, so the void around the world is made
 /// of empty leaves the outside flood starts from.
@@ -23,8 +24,6 @@ pub(crate) struct Prepared {
     /// What faces are drawn with; [`csg::CsgFace::surface`] indexes it.
     pub surfaces: Vec<csg::Surface>,
     pub stats: Stats,
-    /// A mesh's prebuilt world tree (maps build theirs from brushes after loading).
-    pub mesh: Option<mesh::MeshTree>,
     /// Fill unreachable space (maps) or keep every non-solid leaf (meshes, no entities).
     pub fill: bool,
 }

@@ -79,16 +79,16 @@ use sightline_formats::prt::PortalFile;
 
 pub use base::COPLANAR_EPSILON;
 pub use budget::{
-    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, MAX_FLOW_DEPTH, SERIAL_WORK, flow_batch, memory_estimate,
-    work_estimate,
+    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, flow_batch, memory_estimate, work_estimate,
 };
 pub use error::VisError;
+pub use flow::MAX_FLOW_DEPTH;
 pub use options::{VisOptions, VisPhase, VisProgress};
 pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 pub use rows::ROWS_SERIAL_WORDS;
 pub use stats::{VisResult, VisStats};
 
-use budget::{Counts, check_memory, check_work, thread_count, work_limit};
+use budget::{check_memory, check_work, thread_count, work_limit};
 use error::panic_error;
 use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
 use schedule::flow_all;

@@ -4,7 +4,9 @@
 use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
 
-use super::{VisError, VisOptions, base, flow, graph, state};
+use super::error::VisError;
+use super::options::VisOptions;
+use super::{base, flow, graph, state};
 
 /// Portals per deterministic flow batch (a portal sees the results of earlier batches only) for
 /// an input estimated at `100 ×` [`SERIAL_WORK`] or more: long runs on every core, whose batches
@@ -46,17 +48,11 @@ pub(super) fn batch(counts: Counts, opts: &VisOptions) -> usize {
     FLOW_BATCHES.iter().find(|&&(below, _)| work < below).map_or(FLOW_BATCH, |&(_, batch)| batch)
 }
 
-/// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
-/// portal it might still see counts as seen, which can only keep more: a thread holds at most this
-/// many frames (rows of portal bits) whatever the input. No result on the shared real maps comes
-/// near it (they are the same with a limit of 64 and without one).
-pub const MAX_FLOW_DEPTH: usize = 64;
-
 /// An upper estimate of the bytes [`run`](super::run) allocates for `prt` with `opts`, computed from the
 /// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows; with a state file
 /// its log, `state::bytes_bound`, seed pairs included), the cluster × cluster matrices
 /// (certified seeds and the batch's pending ones, cluster rows, their snapshot and the
-/// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`]
+/// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`](super::MAX_FLOW_DEPTH)
 /// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     estimate(Counts::of(prt), &VisOptions { threads: thread_count(prt, opts), ..opts.clone() })

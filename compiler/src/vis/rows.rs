@@ -3,7 +3,8 @@
 use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
 
-use super::{VisResult, VisStats, graph, parallel};
+use super::stats::{VisResult, VisStats};
+use super::{graph, parallel};
 
 /// Below this many words of rows (the one-way portals' rows of `words` words and the cluster
 /// rows), the phases that turn rows into cluster rows run on one thread: there they take tens of

@@ -10,10 +10,11 @@ use sightline_formats::prt::PortalFile;
 
 use std::panic::AssertUnwindSafe;
 
-use super::{
-    VisError, VisOptions, VisPhase, VisProgress, VisStats, flow, flow_batch, graph, panic_error, parallel,
-    seeds, state, symmetry,
-};
+use super::budget::flow_batch;
+use super::error::{VisError, panic_error};
+use super::options::{VisOptions, VisPhase, VisProgress};
+use super::stats::VisStats;
+use super::{flow, graph, parallel, seeds, state, symmetry};
 
 /// Hash of the input and of what changes flow rows: the options and the run's `batch` size.
 pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u64 {

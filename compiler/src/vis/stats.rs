@@ -2,8 +2,6 @@
 
 use sightline_formats::bits;
 
-use super::coarsen;
-
 /// Measurements of a run.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct VisStats {
@@ -47,7 +45,7 @@ pub struct VisStats {
     pub rows_seconds: f64,
     /// When clusters were merged to fit memory ([`VisOptions::coarsen`](super::VisOptions::coarsen)): the rows are still
     /// over the input's clusters, but looser than they allow.
-    pub coarsened: Option<coarsen::CoarsenStats>,
+    pub coarsened: Option<CoarsenStats>,
 }
 
 /// The PVS: one row per cluster (bits over clusters), expandable to leaves.
@@ -138,4 +136,24 @@ impl VisResult {
         };
         stats.percent_visible = 100.0 * stats.avg_visible / n.max(1) as f64;
     }
+}
+
+/// What coarsening did (reported so a mapper knows the PVS is looser than it could be).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct CoarsenStats {
+    /// Clusters in the input.
+    pub clusters_before: u32,
+    /// Clusters vis ran on.
+    pub clusters_after: u32,
+    /// Portal lines in the input.
+    pub portals_before: usize,
+    /// Portal lines vis ran on (those joining different merged clusters).
+    pub portals_after: usize,
+    /// Side of the grid cells that grouped clusters, in map units.
+    pub cell: f64,
+    /// [`memory_estimate`](super::memory_estimate) of the run on the merged clusters plus the rows over the
+    /// input's clusters `expand` builds, in bytes.
+    pub estimate: u64,
+    /// [`work_estimate`](super::work_estimate) of the run on the merged clusters, in portal tests.
+    pub work: u64,
 }
