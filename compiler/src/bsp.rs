@@ -88,6 +88,7 @@ impl Tree {
     }
 
     /// The leaf holding `p` (points on a plane go to the front).
+    #[cfg(test)]
     pub fn locate(&self, planes: &PlaneSet, p: glam::DVec3) -> u32 {
         let mut i = 0u32;
         while let Some(TreeNode::Node { plane, children, .. }) = self.nodes.get(i as usize) {
@@ -176,11 +177,13 @@ impl Tree {
     }
 
     /// Number of interior nodes.
+    #[cfg(test)]
     pub fn num_nodes(&self) -> usize {
         self.nodes.iter().filter(|n| matches!(n, TreeNode::Node { .. })).count()
     }
 
     /// Number of leaves.
+    #[cfg(test)]
     pub fn num_leaves(&self) -> usize {
         self.nodes.len() - self.num_nodes()
     }

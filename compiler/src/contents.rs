@@ -19,7 +19,7 @@ use sightline_formats::texture::TextureKind;
 
 /// The kind of a brush, from its textures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BrushKind {
+pub(crate) enum BrushKind {
     /// Fills its leaves with these contents and draws faces.
     Contents(Contents),
     /// A hint brush: splits the tree with its hint sides, otherwise empty.
@@ -31,7 +31,7 @@ pub enum BrushKind {
 }
 
 /// The kind of a brush with sides textured `textures`.
-pub fn brush_kind<'a, I: IntoIterator<Item = &'a str>>(textures: I) -> BrushKind {
+pub(crate) fn brush_kind<'a, I: IntoIterator<Item = &'a str>>(textures: I) -> BrushKind {
     let (mut liquid, mut sky, mut hint, mut clip, mut trigger, mut other) =
         (None, false, false, false, false, false);
     for t in textures {
@@ -63,7 +63,7 @@ pub fn brush_kind<'a, I: IntoIterator<Item = &'a str>>(textures: I) -> BrushKind
 }
 
 /// Priority when several brushes share a leaf: the highest wins.
-pub fn priority(c: Contents) -> u8 {
+pub(crate) fn priority(c: Contents) -> u8 {
     match c {
         Contents::Empty => 0,
         Contents::Water => 1,
@@ -77,7 +77,7 @@ pub fn priority(c: Contents) -> u8 {
 /// True when sight passes between two adjacent leaves of these contents, so that a portal joins
 /// them: neither is solid, and sky meets only sky (a sky surface hides what lies behind it, as
 /// Quake's tools write no portal into sky). Liquids are see-through, as ericw-tools' default.
-pub fn sight_passes(a: Contents, b: Contents) -> bool {
+pub(crate) fn sight_passes(a: Contents, b: Contents) -> bool {
     sight_passes_with(a, b, LiquidSight::Transparent)
 }
 
@@ -93,7 +93,7 @@ pub enum LiquidSight {
 
 /// As [`sight_passes`], with liquids see-through or not as `liquids` says: under
 /// [`LiquidSight::Opaque`] a portal joins only non-solid leaves of the same contents.
-pub fn sight_passes_with(a: Contents, b: Contents, liquids: LiquidSight) -> bool {
+pub(crate) fn sight_passes_with(a: Contents, b: Contents, liquids: LiquidSight) -> bool {
     match liquids {
         LiquidSight::Transparent => {
             a != Contents::Solid && b != Contents::Solid && (a == Contents::Sky) == (b == Contents::Sky)
@@ -103,13 +103,13 @@ pub fn sight_passes_with(a: Contents, b: Contents, liquids: LiquidSight) -> bool
 }
 
 /// True for contents that stop the outside flood (solid rock and sky, as Quake's qbsp).
-pub fn blocks_outside(c: Contents) -> bool {
+pub(crate) fn blocks_outside(c: Contents) -> bool {
     matches!(c, Contents::Solid | Contents::Sky)
 }
 
 /// What an entity's brushes become.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EntityRole {
+pub(crate) enum EntityRole {
     /// `worldspawn` and `func_group`: structural world brushes.
     World,
     /// `func_detail` family: drawn world brushes that split the tree only after the structural
@@ -124,7 +124,7 @@ pub enum EntityRole {
 }
 
 /// The role of an entity by class name and whether it has brushes.
-pub fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
+pub(crate) fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
     match classname {
         "worldspawn" | "func_group" => EntityRole::World,
         "func_detail" | "func_detail_wall" | "func_detail_fence" => EntityRole::Detail,

@@ -52,8 +52,6 @@ pub struct CsgFace {
     pub surface: u32,
     /// Index of the brush it came from.
     pub brush: u32,
-    /// Contents of that brush.
-    pub contents: Contents,
 }
 
 fn opaque(c: Contents) -> bool {
@@ -116,15 +114,8 @@ pub fn clip_faces(planes: &PlaneSet, brushes: &[CsgBrush]) -> Vec<CsgFace> {
                         winding: winding.reversed(),
                         surface,
                         brush: ai as u32,
-                        contents: a.brush.contents,
                     });
-                    out.push(CsgFace {
-                        plane: side.plane,
-                        winding,
-                        surface,
-                        brush: ai as u32,
-                        contents: a.brush.contents,
-                    });
+                    out.push(CsgFace { plane: side.plane, winding, surface, brush: ai as u32 });
                     out.extend(inside);
                 }
             }

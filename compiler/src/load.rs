@@ -8,12 +8,17 @@ use sightline_formats::geom::WORLD_LIMIT;
 use sightline_formats::map::{Entity, MapFile};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::{Contents, PlaneSet};
+use sightline_job::progress::Progress;
 
 use crate::brush::{Brush, BrushProblem, MAX_BRUSH_SIDES, NO_TEXTURE, SideSpec};
 use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role};
 use crate::csg::{CsgBrush, Surface, clip_faces};
 use crate::outside::Seed;
-use crate::{CompileError, Prepared, Progress, Source, Stats};
+
+use crate::error::CompileError;
+use crate::prepared::Prepared;
+use crate::report::Stats;
+use crate::source::Source;
 
 /// Class and line of entity `index` (for messages).
 pub(crate) fn entity_info(source: &Source, index: usize) -> (String, u32) {
@@ -251,7 +256,6 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         textures,
         surfaces,
         stats,
-        mesh: None,
         fill: true,
     })
 }

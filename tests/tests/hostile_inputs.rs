@@ -782,7 +782,7 @@ fn obj_faces_of_one_or_two_vertices_are_skipped_and_counted() {
 /// it; a brush of many narrow sides within the limit keeps them all.
 #[test]
 fn a_brush_of_too_many_sides_is_an_error_naming_it() {
-    use sightline_compiler::brush::MAX_BRUSH_SIDES;
+    use sightline_compiler::MAX_BRUSH_SIDES;
     use sightline_compiler::{CompileError, CompileOptions, NoProgress, Source, compile};
     // A room (room.map) with a prism over an n-gon of radius 100 in worldspawn: its sides are
     // narrow (0.6 units at n = 1022) and turn by small angles.

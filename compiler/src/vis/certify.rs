@@ -34,32 +34,7 @@ pub fn centroid(pts: &[DVec3]) -> Option<DVec3> {
     Some(pts.iter().copied().sum::<DVec3>() / pts.len() as f64)
 }
 
-/// The edge lines of the convex winding `pts`, lying in a plane of unit normal `normal` (either
-/// turning direction), appended to `out`, one per point: edge `i` runs from point `i` to point
-/// `i + 1` and is `[m.x, m.y, m.z, offset]`, where `m · x - offset` is how far `x` lies inside
-/// that edge (`m` the unit normal of the edge in the plane, pointing into the winding). A
-/// zero-length edge constrains nothing; a winding of no area (or under 3 points) contains nothing.
-pub fn edge_lines(pts: &[DVec3], normal: DVec3, out: &mut Vec<[f64; 4]>) {
-    let n = pts.len();
-    // Newell's area vector: its side of the plane gives the turning direction.
-    let area: DVec3 = (0..n).map(|i| pts[i].cross(pts[(i + 1) % n])).sum();
-    let turn = area.dot(normal);
-    for i in 0..n {
-        let a = pts[i];
-        let e = pts[(i + 1) % n] - a;
-        let len = e.length();
-        out.push(if n < 3 || turn == 0.0 || !turn.is_finite() {
-            [0.0, 0.0, 0.0, f64::INFINITY]
-        } else if len == 0.0 {
-            [0.0, 0.0, 0.0, f64::NEG_INFINITY]
-        } else {
-            let m = normal.cross(e) * (turn.signum() / len);
-            [m.x, m.y, m.z, m.dot(a)]
-        });
-    }
-}
-
-/// `x` lies at least [`CERTIFY_MARGIN`] inside every edge line of a winding ([`edge_lines`]).
+/// `x` lies at least [`CERTIFY_MARGIN`] inside every edge line of a winding ([`edge_lines`](super::graph::edge_lines)).
 #[inline]
 pub fn inside(edges: &[[f64; 4]], x: DVec3) -> bool {
     !edges.is_empty()
@@ -132,6 +107,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
+    use crate::vis::graph::edge_lines;
 
     fn square(x: f64, y0: f64, size: f64) -> Vec<DVec3> {
         vec![

@@ -36,7 +36,11 @@ use glam::DVec3;
 use sightline_formats::bits;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 
-use super::{Counts, VisOptions, VisResult};
+pub use super::stats::CoarsenStats;
+
+use super::budget::Counts;
+use super::options::VisOptions;
+use super::stats::VisResult;
 
 /// The limits a merge must fit.
 #[derive(Debug, Clone, Copy)]
@@ -55,26 +59,6 @@ const GROWTH: f64 = 1.259_921_049_894_873;
 /// How many steps the cell may grow (from the median cluster extent, this spans any coordinates
 /// a portal file holds).
 const MAX_STEPS: u32 = 192;
-
-/// What coarsening did (reported so a mapper knows the PVS is looser than it could be).
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct CoarsenStats {
-    /// Clusters in the input.
-    pub clusters_before: u32,
-    /// Clusters vis ran on.
-    pub clusters_after: u32,
-    /// Portal lines in the input.
-    pub portals_before: usize,
-    /// Portal lines vis ran on (those joining different merged clusters).
-    pub portals_after: usize,
-    /// Side of the grid cells that grouped clusters, in map units.
-    pub cell: f64,
-    /// [`super::memory_estimate`] of the run on the merged clusters plus the rows over the
-    /// input's clusters `expand` builds, in bytes.
-    pub estimate: u64,
-    /// [`super::work_estimate`] of the run on the merged clusters, in portal tests.
-    pub work: u64,
-}
 
 /// A coarsened input: the portal file vis runs on, and the merged cluster of each input cluster.
 pub(crate) struct Coarse {
@@ -126,8 +110,8 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
             leaves: prt.num_leaves,
             points: kept.map(|p| p.winding.points.len() as u128).sum(),
         };
-        let estimate = super::estimate(counts, opts).saturating_add(expanded);
-        let work = super::work(counts, opts);
+        let estimate = super::budget::estimate(counts, opts).saturating_add(expanded);
+        let work = super::budget::work(counts, opts);
         if estimate <= limits.memory && work <= limits.work {
             let coarse = build(prt, &new_id, groups);
             let stats = CoarsenStats {

@@ -17,7 +17,8 @@
 use sightline_formats::bits;
 use sightline_formats::geom::Aabb;
 
-use super::{VisError, VisResult};
+use super::error::VisError;
+use super::stats::VisResult;
 
 /// Distance between two boxes: 0 when they overlap or touch, else the length of the shortest
 /// segment between them. `None` when either box is empty or holds NaN (unknown extent).

@@ -47,7 +47,6 @@
 use glam::DVec3;
 use sightline_formats::geom::Plane;
 
-use super::MAX_FLOW_DEPTH;
 use super::certify;
 use super::graph::Graph;
 use super::poly::{
@@ -55,6 +54,12 @@ use super::poly::{
 };
 use super::seeds::{Recorder, Seeds};
 use sightline_formats::bits;
+
+/// Deepest frame a flow enters (its source portal's frame is 0). There the chain stops and every
+/// portal it might still see counts as seen, which can only keep more: a thread holds at most this
+/// many frames (rows of portal bits) whatever the input. No result on the shared real maps comes
+/// near it (they are the same with a limit of 64 and without one).
+pub const MAX_FLOW_DEPTH: usize = 64;
 
 /// Beam culls a flow makes before it gives up culling if none of them dropped a portal. On
 /// ericw-tools' pillar rooms this saves 24 % (300 sides) and 43 % (600 sides) of vis's

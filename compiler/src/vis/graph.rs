@@ -45,7 +45,7 @@ pub struct Graph {
     /// Per portal, its bounding sphere as `[x, y, z, radius]`, packed for scans over many portals.
     pub spheres: Vec<[f64; 4]>,
     /// Per winding point, the line of the edge from it to the next point in its portal's plane
-    /// ([`super::certify::edge_lines`]), aligned with [`Graph::points`].
+    /// ([`edge_lines`]), aligned with [`Graph::points`].
     pub edges: Vec<[f64; 4]>,
     /// Portal lines dropped (no plane, or joining a cluster to itself).
     pub dropped: usize,
@@ -127,7 +127,7 @@ impl Graph {
             radius,
         });
         self.points.extend_from_slice(pts);
-        super::certify::edge_lines(pts, plane.normal, &mut self.edges);
+        edge_lines(pts, plane.normal, &mut self.edges);
         if let Some(list) = self.cluster_portals.get_mut(owner as usize) {
             list.push(index);
         }
@@ -151,5 +151,30 @@ impl Graph {
     #[inline]
     pub fn edges(&self, p: &OneWay) -> &[[f64; 4]] {
         &self.edges[p.start as usize..(p.start + p.len) as usize]
+    }
+}
+
+/// The edge lines of the convex winding `pts`, lying in a plane of unit normal `normal` (either
+/// turning direction), appended to `out`, one per point: edge `i` runs from point `i` to point
+/// `i + 1` and is `[m.x, m.y, m.z, offset]`, where `m · x - offset` is how far `x` lies inside
+/// that edge (`m` the unit normal of the edge in the plane, pointing into the winding). A
+/// zero-length edge constrains nothing; a winding of no area (or under 3 points) contains nothing.
+pub fn edge_lines(pts: &[DVec3], normal: DVec3, out: &mut Vec<[f64; 4]>) {
+    let n = pts.len();
+    // Newell's area vector: its side of the plane gives the turning direction.
+    let area: DVec3 = (0..n).map(|i| pts[i].cross(pts[(i + 1) % n])).sum();
+    let turn = area.dot(normal);
+    for i in 0..n {
+        let a = pts[i];
+        let e = pts[(i + 1) % n] - a;
+        let len = e.length();
+        out.push(if n < 3 || turn == 0.0 || !turn.is_finite() {
+            [0.0, 0.0, 0.0, f64::INFINITY]
+        } else if len == 0.0 {
+            [0.0, 0.0, 0.0, f64::NEG_INFINITY]
+        } else {
+            let m = normal.cross(e) * (turn.signum() / len);
+            [m.x, m.y, m.z, m.dot(a)]
+        });
     }
 }

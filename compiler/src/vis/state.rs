@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 use sightline_formats::bits;
 use sightline_job::atomic::write_file_atomic;
 
-use super::VisError;
+use super::error::VisError;
 use super::{flow, symmetry};
 
 /// Identifies the state format and the flow's rules ("SLVISST5": the log of batch boundaries

@@ -1,9 +1,12 @@
 //! Unit tests of the whole vis pipeline on small synthetic portal files.
 
+use std::time::Duration;
+
 use glam::DVec3;
 use sightline_formats::geom::Winding;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 
+use super::schedule::input_hash;
 use super::*;
 
 /// A square portal on the plane `x = x0` spanning `y, z` in `[y0, y0 + s]`, facing into `into`

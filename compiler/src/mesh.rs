@@ -3,11 +3,11 @@
 //!
 //! Each triangle's plane faces the side its front (counter-clockwise, OBJ's convention) looks at;
 //! in front is empty space, behind is solid. A splitter is chosen among the planes of the polygons
-//! in the node (at most [`MAX_CANDIDATES`] evenly spaced ones are scored by
+//! in the node (at most `MAX_CANDIDATES` evenly spaced ones are scored by
 //! `5·splits + |front − back|`, axial planes first on ties); polygons on the splitter's plane are
 //! used up. A node without polygons is a leaf: empty when it is the front child of its parent (or
 //! the root), solid when it is the back child. That is only a guess for a mesh that is not closed
-//! and consistently oriented; [`seal`] checks it once the portals exist and opens every solid cell
+//! and consistently oriented; `seal` checks it once the portals exist and opens every solid cell
 //! the triangles do not enclose (warning with where), so a polygon soup never blocks sight its
 //! triangles do not block.
 //!
@@ -23,17 +23,20 @@
 use glam::DVec3;
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
 use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
+use sightline_job::progress::Progress;
 
 use crate::brush::Brush;
 use crate::bsp::{Tree, TreeNode};
 use crate::csg::{CsgFace, Surface};
-use crate::{CompileError, OUTSIDE_MARGIN, Prepared, Progress, Stats};
+use crate::error::CompileError;
+use crate::prepared::{OUTSIDE_MARGIN, Prepared};
+use crate::report::Stats;
 
-pub mod edges;
-pub mod seal;
+mod edges;
+mod seal;
 
 /// At most this many candidate planes are scored per node.
-pub const MAX_CANDIDATES: usize = 32;
+pub(crate) const MAX_CANDIDATES: usize = 32;
 
 /// A triangle soup.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -62,7 +65,11 @@ struct Poly {
     winding: Winding,
 }
 
-pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Result<Prepared, CompileError> {
+pub(crate) fn prepare(
+    mesh: &Mesh,
+    file: &str,
+    progress: &dyn Progress,
+) -> Result<(Prepared, MeshTree), CompileError> {
     progress.begin("csg", mesh.triangles.len() as u64);
     let mut planes = PlaneSet::new();
     let mut polys = Vec::with_capacity(mesh.triangles.len());
@@ -100,13 +107,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
     let mut faces = Vec::with_capacity(2 * polys.len());
     for (i, p) in polys.iter().enumerate() {
         cover.add(p.plane, p.winding.clone());
-        let face = |plane: u32, winding: Winding| CsgFace {
-            plane,
-            winding,
-            surface: 0,
-            brush: i as u32,
-            contents: Contents::Solid,
-        };
+        let face = |plane: u32, winding: Winding| CsgFace { plane, winding, surface: 0, brush: i as u32 };
         faces.push(face(p.plane, p.winding.clone()));
         faces.push(face(p.plane ^ 1, p.winding.reversed()));
     }
@@ -131,7 +132,7 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
             point(b)
         ));
     }
-    Ok(Prepared {
+    let prep = Prepared {
         planes,
         structural: Vec::new(),
         world_faces: faces,
@@ -141,9 +142,9 @@ pub(crate) fn prepare(mesh: &Mesh, file: &str, progress: &dyn Progress) -> Resul
         textures: vec!["mesh".to_string()],
         surfaces: vec![Surface { texture: 0, vectors: [[0.0; 4]; 2] }],
         stats,
-        mesh: Some(MeshTree { tree, volume: volume_box, world, cover }),
         fill: false,
-    })
+    };
+    Ok((prep, MeshTree { tree, volume: volume_box, world, cover }))
 }
 
 /// A mesh's tree before [`seal`] checks its solid cells.

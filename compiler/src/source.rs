@@ -1,0 +1,65 @@
+//! What to compile: a parsed `.map` or a triangle mesh ([`Source`]), read from a file.
+
+use sightline_formats::map::MapFile;
+
+use crate::mesh;
+
+/// What to compile.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// A parsed `.map`.
+    Map {
+        /// The map.
+        map: MapFile,
+        /// File name for messages.
+        file: String,
+    },
+    /// A triangle mesh (from `.obj`): its triangles build a polygon BSP.
+    Mesh {
+        /// The mesh.
+        mesh: mesh::Mesh,
+        /// File name for messages.
+        file: String,
+    },
+}
+
+/// Why [`Source::read`] failed; every variant names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SourceError {
+    /// The `.map` could not be read.
+    #[error("reading {file}")]
+    Read {
+        /// The file.
+        file: String,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The `.map` does not parse.
+    #[error(transparent)]
+    Map(#[from] sightline_formats::map::MapError),
+    /// The `.obj` could not be loaded.
+    #[error(transparent)]
+    Obj(#[from] sightline_formats::obj::ObjError),
+}
+
+impl Source {
+    /// Reads `path`: an `.obj` ([`sightline_formats::FileKind::from_extension`]) as a mesh, any
+    /// other file as a `.map`. The file name kept for messages is `path` as given.
+    ///
+    /// A `.map` is read as bytes ([`sightline_formats::map::parse_bytes`]): UTF-8 text as it is,
+    /// any other file as Latin-1, so Quake's high-bit characters in strings are accepted and kept
+    /// (as the characters `U+0080..=U+00FF` in the level's entity text). An `.obj`'s faces of one
+    /// or two vertices are skipped; [`compile`](fn@crate::compile) reports their count as a warning.
+    pub fn read(path: &std::path::Path) -> Result<Self, SourceError> {
+        let file = path.display().to_string();
+        if sightline_formats::FileKind::from_extension(path) == Some(sightline_formats::FileKind::Obj) {
+            let mesh = mesh::Mesh::from(&sightline_formats::obj::load(path)?);
+            return Ok(Source::Mesh { mesh, file });
+        }
+        let bytes = std::fs::read(path).map_err(|source| SourceError::Read { file: file.clone(), source })?;
+        let map = sightline_formats::map::parse_bytes(&bytes, &file)?;
+        Ok(Source::Map { map, file })
+    }
+}

@@ -1,0 +1,215 @@
+//! Vis: cluster-to-cluster visibility (the PVS) from a portal file, by portal flow with
+//! antipenumbra (separating plane) clipping.
+//!
+//! Phases: `graph` turns each portal line into two one-way portals; `base` computes each
+//! portal's `mightsee` (`--fast` stops there); `flow` clips windings through chains of portals,
+//! one source portal at a time; then each cluster's row is the union of what its portals see plus
+//! the clusters they lead to and itself. [`farplane::cull`] optionally hides far clusters from
+//! each other afterwards (`-farplane`), the one step that may hide a visible cluster.
+//!
+//! # Guarantees
+//! - **Never blocks a real sight line** (up to floating point): every clip keeps a
+//!   [`poly::CLIP_EPSILON`] band beyond its plane, separating planes are accepted only when they
+//!   separate within [`poly::SEPARATOR_EPSILON`], and only portals within
+//!   [`base::COPLANAR_EPSILON`] of a plane are taken as lying in it, so a leaf 0.01 units thick or
+//!   nearly coplanar portals pass sight. Lines that only graze an edge (a set of no width, such as
+//!   a line through a row of exactly aligned wall corners) are not sight lines: a winding that at
+//!   most touches a clipping plane, within [`poly::TOUCH_EPSILON`], is gone.
+//! - **Symmetry prunes**: one-way portals `p` and `p ^ 1` are each other's reverse, and a line
+//!   from `r` through `s` runs backwards from `s ^ 1` through `r ^ 1`; so `s` is cleared from row
+//!   `r` whenever row `s ^ 1` lacks `r ^ 1` (`symmetry`), before the flow and after every batch.
+//!   Rows stay supersets of the truth and later flows narrow by them.
+//! - **Known sight lines prune**: a flow that reaches a new cluster checks the line between the
+//!   middles of its clipped source and target (or, failing that, a line through the middle of a
+//!   clipped pass portal) against the chain's windings (`certify`); when it passes, the
+//!   clusters on it see each other for sure, and later flows from those clusters start with them
+//!   marked seen (saved in checkpoints with the rows). On E1M2 this cuts the chains by a
+//!   quarter. So do the clusters a finished flow saw, for later flows from its own cluster (whose
+//!   row holds them anyway): on E1M1 a further quarter. A batch's new pairs are bits of a cluster
+//!   matrix (`seeds`), never a list per chain (a corridor of 400 leaves once held 3 GB of such
+//!   lists).
+//! - **Bounded depth**: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep and then
+//!   counts everything it might still see as seen, so a thread's working set is that many rows
+//!   whatever the input.
+//! - **Symmetric**: true visibility is symmetric and each computed row is a superset of it, so
+//!   the final matrix is `M ∧ Mᵀ` (still a superset, and tighter than either).
+//! - **Deterministic**: portals are processed in increasing `mightsee` order, in fixed batches
+//!   ([`flow_batch`]: from 4 portals for the smallest inputs to [`FLOW_BATCH`] for the
+//!   largest); a portal uses the final rows and seeds of portals from earlier batches only
+//!   (in place of their `mightsee`), so the output is the same for any thread count and any
+//!   timing. (Batches of one would let every portal use all earlier results, as the reference's
+//!   single thread does: on dm1 9 % fewer chains than batches of 48, on small inputs a fifth.)
+//! - **Resumable**: with [`VisOptions::state`], finished batches are checkpointed and a rerun
+//!   continues after them, producing the same result as an uninterrupted run. The checkpoint is
+//!   the log of the batch boundaries (`state`), replayed and checked on resume: a damaged or
+//!   inconsistent file is a [`VisError::State`], never a different PVS.
+//! - **Fits, or refuses**: before allocating, [`memory_estimate`] bounds what the run will take
+//!   from the counts alone (portal and cluster bit matrices, per-thread rows, the graph); over the
+//!   memory available or [`VisOptions::max_memory`] the run is a [`VisError::Memory`] at once,
+//!   unless [`VisOptions::coarsen`] asks to merge clusters until it fits (`coarsen`): a looser
+//!   PVS, still never hiding a visible leaf (merging only drops portals from chains, relaxing
+//!   their constraints), reported in [`VisStats::coarsened`].
+//! - **Fails, never hangs**: a panic in a flow worker (or anywhere in a run) stops every worker
+//!   and returns [`VisError::Panicked`].
+
+mod base;
+mod budget;
+mod certify;
+pub mod coarsen;
+mod error;
+pub mod farplane;
+mod flow;
+mod graph;
+mod options;
+mod parallel;
+mod poly;
+mod rows;
+mod schedule;
+mod seeds;
+mod state;
+mod stats;
+mod symmetry;
+
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use sightline_formats::bits;
+use sightline_formats::prt::PortalFile;
+
+pub use base::COPLANAR_EPSILON;
+pub use budget::{
+    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, flow_batch, memory_estimate, work_estimate,
+};
+pub use error::VisError;
+pub use flow::MAX_FLOW_DEPTH;
+pub use options::{VisOptions, VisPhase, VisProgress};
+pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
+pub use rows::ROWS_SERIAL_WORDS;
+pub use stats::{VisResult, VisStats};
+
+use budget::{check_memory, check_work, thread_count, work_limit};
+use error::panic_error;
+use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
+use schedule::flow_all;
+
+/// Compute the PVS of a portal file. `progress` is called (from worker threads) as portals finish.
+pub fn run(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    progress: &(dyn Fn(VisProgress) + Sync),
+) -> Result<VisResult, VisError> {
+    if opts.level > 4 {
+        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
+    }
+    check(prt)?;
+    // The thread count and the memory limit, each found once.
+    let opts = &VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
+    let memory = crate::memory::limit(opts.max_memory);
+    // Merges are sized for one thread, so every thread count merges alike (and gives the same
+    // PVS); the run then has to fit with its own threads.
+    let single = VisOptions { threads: 1, ..opts.clone() };
+    let coarse = match check_memory(prt, &single, memory).and_then(|()| check_work(prt, opts)) {
+        Err(e @ (VisError::Memory { .. } | VisError::Work { .. })) if opts.coarsen => {
+            let limits = coarsen::Limits {
+                memory: memory.map_or(u64::MAX, |(limit, _)| limit),
+                work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
+            };
+            let coarse = coarsen::fit(prt, &single, limits).ok_or(e)?;
+            let (done, total) = (coarse.stats.clusters_after as usize, coarse.stats.clusters_before as usize);
+            progress(VisProgress { phase: VisPhase::Coarsen, done, total });
+            Some(coarse)
+        }
+        Err(e) => return Err(e),
+        Ok(()) => None,
+    };
+    let input = coarse.as_ref().map_or(prt, |c| &c.prt);
+    check_memory(input, opts, memory)?;
+    check_work(input, opts)?;
+    let compute = || run_phases(input, opts, progress);
+    // Each parallel phase starts and ends its own threads (`parallel`).
+    let mut result = std::panic::catch_unwind(AssertUnwindSafe(compute)).map_err(panic_error)??;
+    if let Some(c) = coarse {
+        result = coarsen::expand(result, prt, &c.new_id);
+        result.stats.coarsened = Some(c.stats);
+    }
+    result.stats.threads = opts.threads;
+    result.stats.work_estimate = work_estimate(prt, opts);
+    Ok(result)
+}
+
+fn check(prt: &PortalFile) -> Result<(), VisError> {
+    if prt.leaf_clusters.len() != prt.num_leaves as usize {
+        return Err(VisError::Invalid(format!(
+            "{} leaf clusters for {} leaves",
+            prt.leaf_clusters.len(),
+            prt.num_leaves
+        )));
+    }
+    if let Some(c) = prt.leaf_clusters.iter().find(|&&c| c >= prt.num_clusters) {
+        return Err(VisError::Invalid(format!("cluster {c} out of range ({} clusters)", prt.num_clusters)));
+    }
+    if let Some(p) = prt.portals.iter().find(|p| p.leaves.iter().any(|&c| c >= prt.num_clusters)) {
+        return Err(VisError::Invalid(format!(
+            "portal joins {:?}, out of range ({} clusters)",
+            p.leaves, prt.num_clusters
+        )));
+    }
+    Ok(())
+}
+
+/// The phases of a run, on the threads `opts.threads` says (see `parallel`).
+fn run_phases(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    progress: &(dyn Fn(VisProgress) + Sync),
+) -> Result<VisResult, VisError> {
+    let t0 = Instant::now();
+    let g = graph::Graph::new(prt);
+    let n = g.portals.len();
+    let words = bits::words(n);
+    let counter = AtomicUsize::new(0);
+    let base::Mightsee { rows: might, clusters: might_clusters } =
+        base::mightsee(&g, words, opts.threads, &|| {
+            let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(VisProgress { phase: VisPhase::Base, done, total: n });
+        });
+    let row_threads = rows_threads(prt, words, opts.threads);
+    // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
+    let (base_result, avg_mightsee) = if opts.fast {
+        let result = symmetric_result(prt, might_clusters, row_threads);
+        let average = result.average_visible();
+        (Some(result), average)
+    } else {
+        (None, symmetric_average(prt, &might_clusters, row_threads))
+    };
+    let base_seconds = t0.elapsed().as_secs_f64();
+    let mut stats = VisStats {
+        leaves: prt.num_leaves,
+        clusters: prt.num_clusters,
+        portals: prt.portals.len(),
+        dropped_portals: g.dropped,
+        level: opts.level,
+        fast: opts.fast,
+        base_seconds,
+        avg_mightsee,
+        ..VisStats::default()
+    };
+    let mut result = if let Some(base_result) = base_result {
+        base_result
+    } else {
+        let t1 = Instant::now();
+        let portal_vis = flow_all(prt, &g, might, words, opts, progress, &mut stats)?;
+        stats.flow_seconds = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let result = cluster_rows(prt, &g, &portal_vis, words, row_threads);
+        stats.rows_seconds = t2.elapsed().as_secs_f64();
+        result
+    };
+    result.fill_stats(&mut stats);
+    result.stats = stats;
+    Ok(result)
+}
+
+#[cfg(test)]
+mod tests;

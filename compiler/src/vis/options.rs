@@ -1,0 +1,91 @@
+//! What a run is asked to do ([`VisOptions`]) and what it reports as it goes ([`VisProgress`]).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+/// Options of [`run`](super::run).
+#[derive(Debug, Clone)]
+pub struct VisOptions {
+    /// Stop after base vis (`mightsee`), like the reference `-fast`.
+    pub fast: bool,
+    /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
+    pub level: u8,
+    /// Seed flows with clusters known visible by certified sight lines (`certify`) and with
+    /// those earlier flows from the same cluster saw (on by default). Off, every flow finds
+    /// everything itself: more work, and about the PVS the seeds would leave (the beam cull
+    /// depends on the order clusters are found in, and a seeded flow's row also holds portals
+    /// into clusters only its cluster's other portals see).
+    pub seeds: bool,
+    /// Worker threads; 0 uses every core, or one for a run estimated below [`SERIAL_WORK`](super::SERIAL_WORK).
+    /// The result is the same for any count.
+    pub threads: usize,
+    /// Checkpoint file: loaded when present (resume), written every `checkpoint_interval`.
+    pub state: Option<PathBuf>,
+    /// Time between checkpoints.
+    pub checkpoint_interval: Duration,
+    /// Stop (with [`VisError::Interrupted`](super::VisError::Interrupted), after a checkpoint) once at least this many flow
+    /// portals are finished: for tests of resuming.
+    pub stop_after: Option<usize>,
+    /// Stop the same way at the next batch boundary once this flag is set (for example by a
+    /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
+    pub cancel: Option<Arc<AtomicBool>>,
+    /// Refuse (with [`VisError::Memory`](super::VisError::Memory)) a run whose [`memory_estimate`](super::memory_estimate) is above this many
+    /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
+    /// limit too.
+    pub max_memory: Option<u64>,
+    /// Refuse (with [`VisError::Work`](super::VisError::Work)) a run whose [`work_estimate`](super::work_estimate) is above this many portal
+    /// tests. With [`VisOptions::coarsen`] and no limit given, [`COARSEN_MAX_WORK`](super::COARSEN_MAX_WORK) applies.
+    pub max_work: Option<u64>,
+    /// Over either limit, merge clusters until both estimates fit ([`coarsen`](super::coarsen)) instead of
+    /// refusing.
+    pub coarsen: bool,
+    /// Tests only: panic in the flow at this position of the processing order.
+    #[cfg(test)]
+    pub(crate) panic_at: Option<usize>,
+}
+
+impl Default for VisOptions {
+    fn default() -> Self {
+        Self {
+            fast: false,
+            level: 4,
+            seeds: true,
+            threads: 0,
+            state: None,
+            checkpoint_interval: Duration::from_secs(180),
+            stop_after: None,
+            cancel: None,
+            max_memory: None,
+            max_work: None,
+            coarsen: false,
+            #[cfg(test)]
+            panic_at: None,
+        }
+    }
+}
+
+/// Which phase a progress report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum VisPhase {
+    /// Clusters were merged ([`VisOptions::coarsen`]): reported once, before base vis, with
+    /// `done` the merged clusters and `total` the input's.
+    Coarsen,
+    /// Base vis (`mightsee`).
+    Base,
+    /// Full flow.
+    Flow,
+}
+
+/// A progress report: `done` of `total` portals finished in `phase` (clusters for
+/// [`VisPhase::Coarsen`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VisProgress {
+    /// The phase.
+    pub phase: VisPhase,
+    /// Portals finished (counting resumed ones).
+    pub done: usize,
+    /// Portals in the phase.
+    pub total: usize,
+}
