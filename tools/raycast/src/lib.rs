@@ -1,7 +1,7 @@
 //! Bounding volume hierarchy over triangles for ray casting.
 //!
 //! A binary BVH built top-down with a binned surface-area heuristic (16 bins per axis, leaves of at
-//! most [`MAX_LEAF`] triangles), stored as a flat array of 32-byte nodes (the two children of an
+//! most four triangles, `MAX_LEAF`), stored as a flat array of 32-byte nodes (the two children of an
 //! interior node are adjacent) for the build and `groups`; rays traverse the tree collapsed to
 //! 4-wide nodes (four children's boxes in SIMD lanes, tested at once; subtrees of at most
 //! `MERGE_LEAF` triangles become one leaf) with a small explicit stack,
@@ -25,7 +25,7 @@
 //! # Modules
 //! - `build`: the binned-SAH build of the binary tree; `collapse`: the 4-wide traversal tree.
 //! - `node`: the nodes and triangle blocks as stored; `triangle`: the watertight triangle test.
-//! - `traverse`: one ray at a time; `packet`: up to [`LANES`] rays at once; `stack`: the one-ray
+//! - `traverse`: one ray at a time; `packet`: up to 16 rays at once; `stack`: the one-ray
 //!   traversal stack.
 //! - `query`: box queries ([`Bvh::overlapping`]) and triangle groups ([`Bvh::groups`]).
 //! - `brute`: [`intersect_brute`], the reference the tree is tested against.
@@ -50,12 +50,11 @@ mod triangle;
 mod tests;
 
 pub use brute::intersect_brute;
-pub use packet::LANES;
 
 use node::{Block, Node, Quad};
 
 /// Most triangles in one leaf.
-pub const MAX_LEAF: usize = 4;
+pub(crate) const MAX_LEAF: usize = 4;
 /// Deepest tree the traversal stack holds; the build makes a (large) leaf rather than go deeper.
 pub(crate) const STACK: usize = 96;
 /// Factor widening a box's far distance (a few ulps), so that rounding in the slab test never culls

@@ -24,7 +24,7 @@ use crate::triangle::{Ray, dominant_axis, tri_hit};
 use crate::{Bvh, Hit, STACK_DEEP, STACK_SMALL, WIDEN};
 
 /// Most rays in one packet.
-pub const LANES: usize = 16;
+pub(crate) const LANES: usize = 16;
 
 /// One `f32` per lane.
 type F = [f32; LANES];
@@ -63,7 +63,7 @@ impl Bvh {
     /// Closest hits of `rays` (origin, direction) with `0 < t < t_max`, as [`Bvh::intersect`]
     /// gives them one by one (the same `t`, `u`, `v`; see the module notes on ties), into `out`
     /// (cleared first, one entry per ray in order). Rays are grouped by dominant axis and octant
-    /// and traced [`LANES`] at a time; coherent rays (one origin, nearby directions) gain most.
+    /// and traced 16 at a time; coherent rays (one origin, nearby directions) gain most.
     pub fn intersect_many(&self, rays: &[(Vec3, Vec3)], t_max: f32, out: &mut Vec<Option<Hit>>) {
         out.clear();
         out.resize(rays.len(), None);
