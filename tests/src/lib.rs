@@ -1,4 +1,11 @@
-//! Helpers shared by the integration tests in `tests/tests/`.
+//! Helpers shared by the integration tests in `tests/tests/` and the benchmarks: the shared-maps
+//! lookup, input mutation, and generated inputs ([`mapgen`]: sealed `.map` text of any size;
+//! [`shapes`]: the inputs that cost vis the most for their size).
+
+#![warn(missing_docs)]
+
+pub mod mapgen;
+pub mod shapes;
 
 use std::path::PathBuf;
 

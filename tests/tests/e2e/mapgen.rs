@@ -1,4 +1,4 @@
-//! `sightline_validate::mapgen`: the generated text parses, every room is closed on all six sides,
+//! `sightline_tests::mapgen`: the generated text parses, every room is closed on all six sides,
 //! and a flood fill from the player start never reaches the void but reaches every room.
 
 use std::collections::{HashSet, VecDeque};
@@ -6,7 +6,7 @@ use std::collections::{HashSet, VecDeque};
 use glam::DVec3;
 use sightline_formats::geom::Aabb;
 use sightline_formats::map;
-use sightline_validate::mapgen::{self, IBox, MapGenParams};
+use sightline_tests::mapgen::{self, IBox, MapGenParams};
 
 fn boxes_of(text: &str) -> (map::MapFile, Vec<Aabb>) {
     let parsed = map::parse(text, "generated.map").unwrap_or_else(|e| panic!("{e}"));

@@ -1,12 +1,12 @@
-//! Vis on `sightline_validate::shapes`, the inputs that cost vis the most for their size, at sizes
+//! Vis on `sightline_tests::shapes`, the inputs that cost vis the most for their size, at sizes
 //! small enough for a test: the results are exact where the answer is known (a straight corridor
 //! sees all of itself, also past the flow's depth limit) and free of ray-sampled misses where it is
 //! not (a room around a many-sided pillar, a room of tiny brushes).
 
 use sightline_compiler::vis::{self, VisOptions};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
+use sightline_tests::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
 use sightline_validate::pvs::level_pvs;
-use sightline_validate::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
 use sightline_validate::{Options, OracleChoice, validate};
 
 fn none() -> impl Fn(vis::VisProgress) + Sync {

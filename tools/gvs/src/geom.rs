@@ -14,8 +14,10 @@ pub struct Cell {
     pub max: Vec3,
 }
 
-/// Radical inverse of `i` in base `b`: the `i`-th Halton number, in `[0, 1)`.
-pub fn halton(i: u64, b: u32) -> f32 {
+/// Radical inverse of `i` in base `b`: the `i`-th Halton number, in `[0, 1)` (the reference the
+/// tests check [`Halton5`] against).
+#[cfg(test)]
+pub(crate) fn halton(i: u64, b: u32) -> f32 {
     // The bases in use get constant divisors (multiplications instead of divisions).
     match b {
         2 => radical_inverse::<2>(i),

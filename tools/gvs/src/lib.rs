@@ -1,16 +1,18 @@
 //! Guided visibility sampling (GVS): per box view cell, the set of triangles visible from it, found
 //! by guided ray sampling over a BVH ([`sightline_raycast::Bvh`]).
 //!
-//! - [`geom`]: cells and their ray sampler, Halton numbers, the enlarged outline, `edgepoint`.
-//! - [`sampler`]: the algorithm for one cell ([`sampler::run`]) with its [`Params`].
+//! - `geom`: cells ([`Cell`]) and their ray sampler, Halton numbers, the enlarged outline,
+//!   `edgepoint`.
+//! - [`sampler`]: the algorithm for one cell ([`sampler::run`]) with its [`Params`], one file per
+//!   strategy under `sampler/`.
 //! - [`update`]: the incremental update of a PVS when its cell moves.
-//! - [`neighbours`]: the per-scene neighbour table of neighbour probing.
-//! - [`components`], [`targets`], [`sheets`], [`twins`]: the per-scene surface components, target
-//!   groups, sheets and coplanar twins.
+//! - `neighbours`: the per-scene neighbour table of neighbour probing ([`Neighbours`]).
+//! - `components`, `targets`, `sheets`, `twins`: the per-scene surface components
+//!   ([`Components`]), target groups ([`TargetGroups`]), sheets and coplanar twins ([`Twins`]).
 //! - [`error`]: the thesis' wrong-pixel metric from ID buffers.
 //! - [`metric`]: that metric over many cells and variants at once, in batches of bounded memory.
 //! - [`scene`]: triangle scenes from generators, `.obj` and levels, and [`scene::load`].
-//! - [`scenegen`]: the generated scenes (`gen:<kind>:<size>`).
+//! - [`scenegen`]: the generated benchmark scenes of `sightline gvs gen:<kind>:<size>`.
 //! - [`cells`]: view cells on a grid, and even selections of cells.
 //!
 //! Long runs ([`run_variant`], [`metric::Metric::measure`]) report progress through [`Progress`].
@@ -19,18 +21,20 @@
 //! triangles that only tiny ray bundles reach. Results are deterministic for any thread count:
 //! each cell is sampled sequentially, cells run in parallel.
 
+#![warn(missing_docs)]
+
 pub mod cells;
-pub mod components;
+pub(crate) mod components;
 pub mod error;
-pub mod geom;
+pub(crate) mod geom;
 pub mod metric;
-pub mod neighbours;
+pub(crate) mod neighbours;
 pub mod sampler;
 pub mod scene;
 pub mod scenegen;
-pub mod sheets;
-pub mod targets;
-pub mod twins;
+pub(crate) mod sheets;
+pub(crate) mod targets;
+pub(crate) mod twins;
 mod union_find;
 pub mod update;
 

@@ -95,7 +95,7 @@ pub fn leaf_cells(level: &Level, margin: f32) -> Vec<Cell> {
         .collect()
 }
 
-/// Why [`load`] (or [`load_obj`], [`read_level`]) gives no scene.
+/// Why [`load`] gives no scene.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LoadError {
@@ -150,7 +150,7 @@ pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), L
 
 /// The triangles of the `.obj` mesh at `path` (triangles with a corner outside the vertex list
 /// are skipped).
-pub fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
+fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
     let mesh = sightline_formats::obj::load(path)?;
     let triangles =
         (0..mesh.triangles.len()).filter_map(|i| mesh.triangle(i)).map(|t| t.map(|p| p.as_vec3())).collect();
@@ -158,7 +158,7 @@ pub fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
 }
 
 /// Read and validate the `.slvl` level at `path`.
-pub fn read_level(path: &Path) -> Result<Level, LoadError> {
+fn read_level(path: &Path) -> Result<Level, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Read { path: path.to_path_buf(), source })?;
     sightline_formats::slvl::read(&bytes)
         .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })

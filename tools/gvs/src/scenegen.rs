@@ -1,5 +1,7 @@
-//! Procedural triangle scenes of the kinds the GVS thesis measures: a maze city of box buildings,
-//! random spheres (optionally half replaced by single triangles) in a 40³ box, and a flat mesh.
+//! The generated benchmark scenes of `sightline gvs gen:<city|spheres|mixed|mesh>:<size>` (a
+//! feature of the shipped command, also used by the tests and benchmarks): procedural triangle
+//! scenes of the kinds the GVS thesis measures, a maze city of box buildings, random spheres
+//! (optionally half replaced by single triangles) in a 40³ box, and a flat mesh.
 //!
 //! # Conventions
 //! - `z` is up; units are arbitrary world units (a city block is [`BLOCK`] units wide).

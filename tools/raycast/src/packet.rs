@@ -18,10 +18,13 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::{Block, Bvh, Hit, Ray, STACK_DEEP, STACK_SMALL, WIDEN, box_hit, dominant_axis, tri_hit};
+use crate::node::Block;
+use crate::traverse::box_hit;
+use crate::triangle::{Ray, dominant_axis, tri_hit};
+use crate::{Bvh, Hit, STACK_DEEP, STACK_SMALL, WIDEN};
 
 /// Most rays in one packet.
-pub const LANES: usize = 16;
+pub(crate) const LANES: usize = 16;
 
 /// One `f32` per lane.
 type F = [f32; LANES];
@@ -60,7 +63,7 @@ impl Bvh {
     /// Closest hits of `rays` (origin, direction) with `0 < t < t_max`, as [`Bvh::intersect`]
     /// gives them one by one (the same `t`, `u`, `v`; see the module notes on ties), into `out`
     /// (cleared first, one entry per ray in order). Rays are grouped by dominant axis and octant
-    /// and traced [`LANES`] at a time; coherent rays (one origin, nearby directions) gain most.
+    /// and traced 16 at a time; coherent rays (one origin, nearby directions) gain most.
     pub fn intersect_many(&self, rays: &[(Vec3, Vec3)], t_max: f32, out: &mut Vec<Option<Hit>>) {
         out.clear();
         out.resize(rays.len(), None);
@@ -122,6 +125,7 @@ impl Bvh {
         {
             if std::arch::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the CPU has AVX-512F (checked just above), all this function needs.
+                // `unsafe` allowed here: a `#[target_feature]` (SIMD) function is unsafe to call.
                 #[allow(unsafe_code)]
                 unsafe {
                     self.packet_avx512(rays, lanes, t_max, out, kz)
@@ -130,6 +134,7 @@ impl Bvh {
             }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU has AVX2 (checked just above), all this function needs.
+                // `unsafe` allowed here: a `#[target_feature]` (SIMD) function is unsafe to call.
                 #[allow(unsafe_code)]
                 unsafe {
                     self.packet_avx2(rays, lanes, t_max, out, kz)

@@ -6,21 +6,21 @@
 use std::mem::MaybeUninit;
 
 /// A stack of at most `N` entries of `T`.
-pub(super) struct Stack<T: Copy, const N: usize> {
+pub(crate) struct Stack<T: Copy, const N: usize> {
     items: [MaybeUninit<T>; N],
     len: usize,
 }
 
 impl<T: Copy, const N: usize> Stack<T, N> {
     #[inline(always)]
-    pub(super) fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Stack { items: [const { MaybeUninit::uninit() }; N], len: 0 }
     }
 
     /// Push `v`; a full stack drops it (callers size `N` to the tree's deepest need, so it never
     /// is full).
     #[inline(always)]
-    pub(super) fn push(&mut self, v: T) {
+    pub(crate) fn push(&mut self, v: T) {
         if let Some(slot) = self.items.get_mut(self.len) {
             slot.write(v);
             self.len += 1;
@@ -28,8 +28,9 @@ impl<T: Copy, const N: usize> Stack<T, N> {
     }
 
     #[inline(always)]
-    pub(super) fn pop(&mut self) -> Option<T> {
+    pub(crate) fn pop(&mut self) -> Option<T> {
         self.len = self.len.checked_sub(1)?;
+        // `unsafe` allowed here: the storage is left uninitialised (see the module docs).
         #[allow(unsafe_code)]
         // SAFETY: `push` wrote every entry below the old `len`, and `len` only grows there.
         Some(unsafe { self.items[self.len].assume_init() })

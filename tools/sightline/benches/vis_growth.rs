@@ -1,4 +1,4 @@
-//! How vis time grows with the number of portals, on sealed maps from `tools::mapgen` (rooms,
+//! How vis time grows with the number of portals, on sealed maps from `sightline_tests::mapgen` (rooms,
 //! corridors, stairs, pillars, several storeys) compiled by `sightline_compiler::compile`.
 //!
 //! `cargo bench -p sightline --bench vis_growth` prints a Markdown table: rooms, storeys, vis
@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use sightline_compiler::vis::{self, VisOptions};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
-use sightline_validate::mapgen::{MapGenParams, generate};
+use sightline_tests::mapgen::{MapGenParams, generate};
 
 mod common;
 use common::cpu_seconds;

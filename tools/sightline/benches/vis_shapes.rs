@@ -1,5 +1,5 @@
 //! Vis time and memory on the shapes that cost it the most for their size
-//! ([`sightline_validate::shapes`]): a straight corridor (a portal file written directly), a room
+//! ([`sightline_tests::shapes`]): a straight corridor (a portal file written directly), a room
 //! around one many-sided pillar and a room of many tiny brushes (both compiled by
 //! `sightline_compiler::compile` without vis).
 //!
@@ -15,7 +15,7 @@ use std::time::Instant;
 use sightline_compiler::vis::{self, VisOptions};
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_formats::prt::PortalFile;
-use sightline_validate::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
+use sightline_tests::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
 
 mod common;
 use common::cpu_seconds;

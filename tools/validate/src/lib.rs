@@ -1,5 +1,5 @@
 //! Checking a level's PVS without trusting the code that computed it: PVS validation by ray
-//! sampling, pictures of levels, and a generator of test maps. This is a library: it reports
+//! sampling, and pictures of levels. This is a library: it reports
 //! progress through [`Progress`] and fails with error values ([`ValidateError`],
 //! [`load::LoadError`], [`render::RenderError`], [`render::image::PngError`]); the `sightline`
 //! command line draws the bars and prints the errors.
@@ -17,29 +17,28 @@
 //! Every cluster pair a bundle agrees on is visible; a visible pair missing from the PVS is a
 //! **miss**, reported with a segment between points of the two leaves.
 //!
-//! # Pictures and maps
+//! # Pictures
 //! [`render`] draws first-person views (pixels outside the eye's PVS in red), plans with PVS,
-//! frustum, portals and leak paths, and PVS matrices, as PNG. [`mapgen`] writes sealed `.map`
-//! files of any size for tests and benchmarks; [`shapes`] the inputs that cost vis the most for
-//! their size (a long corridor, a many-sided pillar, many tiny brushes).
+//! frustum, portals and leak paths, and PVS matrices, as PNG. (The generated test maps, `mapgen`
+//! and `shapes`, live in the test-support crate `sightline-tests`.)
 //!
 //! # Independence
 //! Nothing here calls the vis code it validates (this crate does not depend on the compiler): the
 //! tree walks ([`bsp`]), the PVS decoding ([`pvs`]) and the sampling are written here, so that a
 //! bug in vis or in the runtime cannot hide a bug in a PVS.
 
-pub mod atomic;
+#![warn(missing_docs)]
+
+pub(crate) mod atomic;
 pub mod bsp;
-pub mod cell;
+pub(crate) mod cell;
 pub mod load;
-pub mod mapgen;
-pub mod mesh;
+pub(crate) mod mesh;
 pub mod pvs;
 pub mod render;
 pub mod report;
 pub mod rng;
-pub mod sample;
-pub mod shapes;
+pub(crate) mod sample;
 
 pub use sightline_job::progress::{NoProgress, Progress};
 

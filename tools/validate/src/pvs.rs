@@ -57,13 +57,6 @@ impl BitMatrix {
         }
     }
 
-    /// `self |= other` (same size).
-    pub fn union_with(&mut self, other: &BitMatrix) {
-        for (x, y) in self.bits.iter_mut().zip(&other.bits) {
-            *x |= *y;
-        }
-    }
-
     /// Set bits in row `a`.
     pub fn row_count(&self, a: usize) -> u64 {
         self.bits
@@ -131,8 +124,6 @@ mod tests {
         let mut other = BitMatrix::new(130);
         other.set(0, 0);
         assert_eq!(m.count_not_in(&other), 1);
-        other.union_with(&m);
-        assert_eq!(other.count(), 2);
         m.clear(0, 0);
         assert_eq!(m.count(), 1);
     }

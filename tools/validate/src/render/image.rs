@@ -153,7 +153,7 @@ pub fn leaf_colour(leaf: u32) -> Rgb {
 }
 
 /// HSV (hue in degrees, saturation and value in 0..1) to RGB.
-pub fn hsv(hue: f64, s: f64, v: f64) -> Rgb {
+fn hsv(hue: f64, s: f64, v: f64) -> Rgb {
     let c = v * s;
     let hp = (hue.rem_euclid(360.0)) / 60.0;
     let x = c * (1.0 - (hp % 2.0 - 1.0).abs());

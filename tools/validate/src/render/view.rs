@@ -142,7 +142,7 @@ pub fn render_view(
 }
 
 /// Largest extent of the open leaves' bounds.
-pub fn world_extent(tree: &BspTree<'_>) -> f64 {
+fn world_extent(tree: &BspTree<'_>) -> f64 {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for (i, l) in tree.level().leaves.iter().enumerate() {
         if tree.is_open(i) {
