@@ -1,6 +1,17 @@
-//! Helpers shared by the integration tests in `tests/tests/`.
+//! Helpers shared by the integration tests in `tests/tests/` and the tests, examples and
+//! benchmarks of the runtime crates: real-map lookup, [`runtime_check`] (brute-force reference
+//! answers for `sightline-runtime`) and [`synth`] (synthetic levels built in code).
 
 use std::path::PathBuf;
+
+pub mod runtime_check;
+pub mod synth;
+
+/// `docs/engine.md`, the engine integration guide, included so that its Rust snippets run as
+/// doctests (they build small levels with [`synth`]).
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/engine.md")]
+pub struct EngineGuide;
 
 use sightline_job::rng::SplitMix64;
 
