@@ -5,7 +5,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sightline_runtime::backend::{self, Backend};
-use sightline_runtime::{Scratch, Visible, World, load, poses, synth};
+use sightline_runtime::{Scratch, Visible, World, load, poses};
+use sightline_tests::synth;
 
 fn world() -> (String, World) {
     let dir = sightline_tests::shared_maps().unwrap_or_default();

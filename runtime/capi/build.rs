@@ -1,5 +1,5 @@
 //! Give the shared library the SONAME `libsightline.so.0` on Linux (the ABI major version; bump it
-//! with an incompatible change to `runtime/include/sightline.h`).
+//! with an incompatible change to `runtime/capi/include/sightline.h`).
 
 fn main() {
     if std::env::var("CARGO_CFG_TARGET_OS").is_ok_and(|os| os == "linux") {

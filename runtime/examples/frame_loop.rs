@@ -1,7 +1,7 @@
 //! An engine's frame loop with sightline-runtime: load once, then every frame move the camera
 //! (tracing so it never walks into solid), cull with a reused scratch and output lists (back
 //! faces dropped by the walk), and draw front to back with the draw data. Run with a level or BSP path, e.g.
-//! `cargo run --release -p sightline-runtime --features testkit --example frame_loop -- ../shared/maps/ericw/e1m1.vis.bsp`
+//! `cargo run --release -p sightline-runtime --example frame_loop -- ../shared/maps/ericw/e1m1.vis.bsp`
 //! (without an argument it builds a small grid level in memory).
 
 use std::time::Instant;
@@ -9,7 +9,8 @@ use std::time::Instant;
 use glam::Vec3;
 use sightline_formats::entities::Entity;
 use sightline_runtime::backend;
-use sightline_runtime::{Camera, Scratch, Visible, World, load, synth};
+use sightline_runtime::{Camera, Scratch, Visible, World, load};
+use sightline_tests::synth;
 
 /// The `origin` of the first `info_player_start` among the level's entities, if it has a
 /// well-formed one.

@@ -10,11 +10,12 @@
 //! # }
 //! ```
 //!
-//! A [`World`] is validated once at load ([`World::new`], [`load::load_slvl`], [`load::load_bsp`], [`load::load_path`]);
+//! A [`World`] is validated once at load ([`World::new`], [`load::load_path`], [`load::load_bytes`]);
 //! afterwards no query can panic. It is immutable and `Send + Sync`; per-caller state lives in a
 //! [`Scratch`], so culling allocates nothing per frame.
 
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 // Layers, bottom up (a module imports only from layers below it):
 // 1. `error`, `camera`: no crate imports.
@@ -22,29 +23,22 @@
 // 3. `locate`, `layout`, `draw` (built from `tree`); then `pvs` (rows, PHS, per-cluster trees
 //    over `layout`).
 // 4. `world`: owns all of the above; knows no query module and no backend.
-// 5. `scratch`, `trace`, `load`, `query`; then `walk`; then `backend::*`; then `check`, `poses`, `synth`
-//    (feature `testkit`) and `ffi` (feature `ffi`).
+// 5. `scratch`, `trace`, `load`, `query`; then `walk`; then `backend::*`; then `poses` (benchmark
+//    input). The C ABI is the crate `sightline-capi` (`runtime/capi`); the brute-force reference
+//    walk and synthetic levels are in the test-support crate `sightline-tests`.
 
 pub mod backend;
 pub mod camera;
-#[cfg(any(test, feature = "testkit"))]
-pub mod check;
 pub mod draw;
 pub mod error;
-#[cfg(feature = "ffi")]
-#[allow(unsafe_code)]
-pub mod ffi;
 pub mod gvs_cells;
 pub(crate) mod layout;
 pub mod load;
 pub(crate) mod locate;
-#[cfg(any(test, feature = "testkit"))]
 pub mod poses;
 pub mod pvs;
 pub mod query;
 pub mod scratch;
-#[cfg(any(test, feature = "testkit"))]
-pub mod synth;
 pub mod trace;
 pub(crate) mod tree;
 pub mod walk;
@@ -57,13 +51,4 @@ pub use gvs_cells::GvsCells;
 pub use pvs::Bitset;
 pub use scratch::{FrameStats, Scratch, Visible};
 pub use trace::TraceHit;
-pub use world::{Bounds, LeafId, World};
-
-#[cfg(test)]
-mod tests;
-
-/// `docs/engine.md`, the engine integration guide, included so that its Rust snippets run as
-/// doctests (they build small levels with `synth`, hence `testkit`).
-#[cfg(all(doctest, feature = "testkit"))]
-#[doc = include_str!("../../docs/engine.md")]
-pub struct EngineGuide;
+pub use world::{Bounds, LeafId, Node, World};

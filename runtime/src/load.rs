@@ -1,6 +1,7 @@
-//! Loading a [`World`] from `.slvl` or Quake-family `.bsp` bytes (Quake 1, Half-Life, Quake 2),
-//! optionally with the `.prt` file that a Quake 1 BSP's compiler wrote, to give the portal backend
-//! its portals.
+//! Loading a [`World`] from `.slvl` or Quake-family `.bsp` bytes (Quake 1, Half-Life, Quake 2,
+//! Quake 3), optionally with the `.prt` file that a Quake 1 BSP's compiler wrote, to give the
+//! portal backend its portals. Two entry points: [`load_path`] (a file, and the portal file
+//! beside it) and [`load_bytes`] (bytes in memory); both tell the format by its magic bytes.
 
 use std::path::Path;
 
@@ -14,7 +15,7 @@ use crate::pvs::PvsRows;
 use crate::world::World;
 
 /// Load a `.slvl` file's bytes.
-pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
+fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
     World::new(&slvl::read(bytes)?)
 }
 
@@ -22,7 +23,7 @@ pub fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
 /// BSP30): leaf `i` of the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1` (see
 /// [`bsp::to_level`]); Quake 2 (`IBSP` 38): as [`load_q2`]; Quake 3 (`IBSP`
 /// 46/47): its own clusters and cluster PVS ([`bsp::q3::to_level`]). The world has no portals.
-pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
+fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
     if bsp::q3::is_q3(bytes) {
         return World::new(&bsp::q3::to_level(&bsp::q3::read(bytes)?));
     }
@@ -35,7 +36,7 @@ pub fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
 /// Load a Quake 2 `.bsp` (`IBSP` 38): leaves keep their clusters, and the PVS and PHS rows are
 /// the file's (see [`q2::to_level`]; [`World::decode_phs`] decodes the stored PHS, which
 /// [`sightline_formats::bsp::q2::read`] checked decodes).
-pub fn load_q2(bytes: &[u8]) -> Result<World, LoadError> {
+fn load_q2(bytes: &[u8]) -> Result<World, LoadError> {
     let file = q2::read(bytes)?;
     let phs = file.vis.as_ref().and_then(|vis| {
         let num_clusters = u32::try_from(vis.num_clusters).ok()?;
@@ -46,14 +47,15 @@ pub fn load_q2(bytes: &[u8]) -> Result<World, LoadError> {
 }
 
 /// Load a Quake `.bsp` and take its portals from the text of the `.prt` file its compiler wrote.
-pub fn load_bsp_with_prt(bytes: &[u8], prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
+fn load_bsp_with_prt(bytes: &[u8], prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
     let mut level = bsp::to_level(&bsp::read(bytes)?);
     let prt = prt::read(prt_text, prt_name)?;
     add_prt_portals(&mut level, &prt)?;
     World::new(&level)
 }
 
-/// Load `.slvl` or `.bsp` bytes, told apart by their first four bytes.
+/// Load `.slvl` or `.bsp` bytes (any game of the family), told apart by their first four bytes.
+/// No portal file is read: the portal backend is available for a `.slvl` with portals.
 pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
 }
@@ -93,14 +95,14 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
 /// The portal file beside a `.bsp` that exists, by the one rule every reader follows
 /// ([`sightline_formats::prt::find_beside_bsp`]): `NAME.prt` for `NAME.bsp`; `NAME.vis.prt`, else
 /// `NAME.prt`, for `NAME.vis.bsp`. `None` when there is none (or the name does not end in `.bsp`).
-pub fn sibling_prt(path: &Path) -> Option<std::path::PathBuf> {
+fn sibling_prt(path: &Path) -> Option<std::path::PathBuf> {
     prt::find_beside_bsp(path)
 }
 
 /// Append the portals of a PRT1 file to a level made by [`bsp::to_level`]: vis leaf `i` of the
 /// portal file is leaf `i + 1` of the level, and the winding's plane (which faces into its first
 /// leaf) becomes the portal's plane, so the level's convention (normal into `leaves[0]`) holds.
-pub fn add_prt_portals(level: &mut Level, prt: &PortalFile) -> Result<(), LoadError> {
+fn add_prt_portals(level: &mut Level, prt: &PortalFile) -> Result<(), LoadError> {
     if prt.format != PrtFormat::Prt1 {
         return Err(LoadError::Prt(format!(
             "the portal backend needs leaf portals (PRT1); this file is {:?} (compile without detail)",

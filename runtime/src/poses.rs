@@ -1,4 +1,6 @@
-//! Deterministic random camera poses inside open leaves, for benchmarks and tests.
+//! Deterministic random camera poses inside open leaves: the benchmark input of `sightline bench`
+//! and the runtime's criterion bench (the same seed gives the same poses on every machine), also
+//! used by tests.
 
 use glam::{Vec3, Vec3A};
 

@@ -117,8 +117,8 @@ impl World {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::grid_level;
     use proptest::prelude::*;
+    use sightline_tests::synth::grid_level;
 
     /// 6×5×3 cells of 64 units with about a quarter solid: every leaf's box is its cell.
     fn world(seed: u64) -> World {

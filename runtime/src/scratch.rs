@@ -146,3 +146,42 @@ impl Scratch {
         world.walk_tree().mark_leaf(&mut self.marks, self.mark_gen, leaf)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::{Backend, pvs::Pvs};
+    use crate::poses::{SplitMix64, random_cameras};
+    use crate::world::World;
+    use sightline_tests::synth::grid_level;
+
+    /// The walk's buffers (private to the crate) keep their capacity once warm.
+    #[test]
+    fn walk_allocates_nothing_after_warm_up() {
+        let mut rng = SplitMix64::new(2);
+        let solid: Vec<bool> = (0..8 * 6 * 3).map(|_| rng.below(4) == 0).collect();
+        let level = grid_level([8, 6, 3], 64.0, true, |x, y, z| solid[(z * 6 + y) * 8 + x]);
+        let world = World::new(&level).expect("valid");
+        let mut scratch = Scratch::new(&world);
+        let mut out = Visible::for_world(&world);
+        let cams = random_cameras(&world, 9, 200);
+        let caps = (
+            out.leaves.capacity(),
+            out.faces.capacity(),
+            scratch.walk.stack.capacity(),
+            scratch.planes.capacity(),
+        );
+        for cam in &cams {
+            Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
+        }
+        assert_eq!(
+            caps,
+            (
+                out.leaves.capacity(),
+                out.faces.capacity(),
+                scratch.walk.stack.capacity(),
+                scratch.planes.capacity()
+            )
+        );
+    }
+}

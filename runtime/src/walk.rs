@@ -18,7 +18,7 @@
 //! is not output by any of them).
 //!
 //! **Invariant:** both walks (over a cluster's PVS tree and over a mark set) output exactly what
-//! `check::reference_walk` (feature `testkit`: recursive, scalar, over the level's own tables)
+//! `sightline_tests::runtime_check::reference_walk` (recursive, scalar, over the level's own tables)
 //! outputs with the same view, back-face culling included: the same leaves, faces and order.
 //! Tested on synthetic grids and on random poses of real maps.
 

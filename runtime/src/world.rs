@@ -40,6 +40,19 @@ use crate::tree::{Csr, Tree};
 
 pub use crate::tree::{LeafId, MAX_TREE_DEPTH};
 
+/// An interior node of the world tree, as [`World::node`] gives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Node {
+    /// Unit plane normal.
+    pub normal: Vec3A,
+    /// Plane distance: a point `p` is in front when `normal · p - dist >= 0`.
+    pub dist: f32,
+    /// Front and back child: a node index when `>= 0`, else leaf `!child`.
+    pub children: [i32; 2],
+    /// The union of the boxes of the non-solid leaves below (recomputed at load).
+    pub bounds: Bounds,
+}
+
 /// A box as centre and half-size, the form the frustum test wants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Bounds {
@@ -180,7 +193,7 @@ impl World {
 
     /// Decode the PHS row of `cluster` into `out`, as [`World::decode_pvs`] does for the PVS: bit
     /// `j` set means a sound in cluster `j` may be heard from `cluster`. A Quake 2 file's own PHS
-    /// rows are used as they are ([`crate::load::load_q2`]); otherwise row `c` is the union of
+    /// rows are used as they are (the Quake 2 path of [`crate::load::load_bytes`]); otherwise row `c` is the union of
     /// the PVS rows of every cluster in `c`'s PVS (Quake's `SV_CalcPHS`), computed once, on the
     /// first call (about clusters × visible clusters × row words of work and a transient
     /// `clusters² / 8`-byte matrix: 61 ms for the 3,669 clusters of LibreQuake's E1M1).
@@ -279,20 +292,22 @@ impl World {
         self.tree.cluster_leaves.get(cluster as usize)
     }
 
-    /// The interior node planes from the root to `leaf`, each with the side the leaf is on
-    /// (`true` = front). Empty for a leaf outside the world tree. For tests and tools.
-    pub fn leaf_path(&self, leaf: LeafId) -> Vec<(Vec3A, f32, bool)> {
-        let mut path = Vec::new();
-        let Some(l) = self.tree.leaves.get(leaf as usize) else { return path };
-        let mut child = -(leaf as i64) - 1;
-        let mut parent = l.parent;
-        while let Some(node) = self.tree.nodes.get(parent as usize) {
-            path.push((node.normal, node.dist, i64::from(node.children[0]) == child));
-            child = i64::from(parent);
-            parent = node.parent;
-        }
-        path.reverse();
-        path
+    /// The root of the world tree, encoded as a node's children are ([`Node::children`]).
+    pub fn root(&self) -> i32 {
+        self.tree.root
+    }
+
+    /// Interior node `node` (`0..num_nodes`) of the world tree, with its box recomputed at load;
+    /// for reference walks in tests and tools ([`World::root`] starts them). `None` when out of
+    /// range.
+    pub fn node(&self, node: u32) -> Option<Node> {
+        let n = self.tree.nodes.get(node as usize)?;
+        Some(Node {
+            normal: n.normal,
+            dist: n.dist,
+            children: n.children,
+            bounds: Bounds { center: n.center, extent: n.extent },
+        })
     }
 
     // Crate-internal views for the layers above (queries and backends); all read-only.

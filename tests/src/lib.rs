@@ -1,6 +1,9 @@
-//! Helpers shared by the integration tests in `tests/tests/` and the benchmarks: the shared-maps
-//! lookup, input mutation, and generated inputs ([`mapgen`]: sealed `.map` text of any size;
-//! [`shapes`]: the inputs that cost vis the most for their size).
+//! Helpers shared by the integration tests in `tests/tests/` and the tests, examples and
+//! benchmarks of every crate: the shared-maps lookup (a skip becomes a failure under
+//! `SIGHTLINE_REQUIRE_MAPS`), input mutation, generated inputs ([`mapgen`]: sealed `.map` text of
+//! any size; [`shapes`]: the inputs that cost vis the most for their size), [`runtime_check`]
+//! (brute-force reference answers for `sightline-runtime`) and [`synth`] (synthetic levels built
+//! in code).
 
 #![warn(missing_docs)]
 
@@ -8,6 +11,15 @@ pub mod mapgen;
 pub mod shapes;
 
 use std::path::PathBuf;
+
+pub mod runtime_check;
+pub mod synth;
+
+/// `docs/engine.md`, the engine integration guide, included so that its Rust snippets run as
+/// doctests (they build small levels with [`synth`]).
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/engine.md")]
+pub struct EngineGuide;
 
 use sightline_job::rng::SplitMix64;
 

@@ -32,33 +32,11 @@ use bevy::math::{Affine3A, Mat4, Vec3A};
 use bevy::transform::components::GlobalTransform;
 use sightline_runtime::backend::{Backend, pvs::Pvs};
 use sightline_runtime::camera::ClipDepth;
-use sightline_runtime::{Bitset, LeafId, Scratch, View, Visible, World};
+use sightline_runtime::{Bitset, Scratch, View, Visible, World};
 
 use crate::asset::LevelAsset;
+use crate::components::{ClusterMesh, LevelRoot, LevelSpawned, PvsCulled, TouchedLeaves};
 use crate::coords::bevy_from_quake;
-use crate::spawn::{ClusterMesh, LevelRoot, LevelSpawned};
-
-/// Marks an entity (a monster, a pickup, a brush model) to be culled by the level leaves its
-/// world-space `Aabb` touches (its translation alone when it has no `Aabb`). The leaves are found
-/// again only when its `GlobalTransform` or `Aabb` changes, or the level does.
-#[derive(Component, Debug, Clone, Copy, Default)]
-#[require(TouchedLeaves)]
-pub struct PvsCulled;
-
-/// The open leaves of the level that a [`PvsCulled`] entity's box touches (kept by the plugin).
-#[derive(Component, Debug, Clone, Default)]
-pub struct TouchedLeaves {
-    leaves: Vec<LeafId>,
-    /// The level root they were found in.
-    level: Option<Entity>,
-}
-
-impl TouchedLeaves {
-    /// The leaves, in the runtime's leaf numbering (empty: outside the level, or not yet placed).
-    pub fn leaves(&self) -> &[LeafId] {
-        &self.leaves
-    }
-}
 
 /// Opts a camera in to PVS culling. `freeze: true` keeps culling with the eye and frustum of the
 /// frame it was set on, so one can fly out and look at what was drawn; setting it back to `false`

@@ -14,24 +14,25 @@
 //! ```
 //!
 //! - [`SightlinePlugin`] registers the [`LevelAsset`] type and its loader ([`LevelLoader`]:
-//!   `.bsp`, `.slvl`), spawns a [`LevelRoot`]'s meshes when loaded ([`crate::spawn`]), keeps
+//!   `.bsp`, `.slvl`), spawns a [`LevelRoot`]'s meshes when loaded ([`crate::spawn`]; the
+//!   components are in [`crate::components`]), keeps
 //!   the leaves of [`PvsCulled`] entities, and culls the views of [`PvsCamera`]s ([`crate::cull`]).
 //! - Coordinates: Quake's Z-up axes become Bevy's Y-up ones by the one rule in [`crate::coords`].
 //! - Systems run in `PostUpdate`, in [`SightlineSystems`], which you can order against.
 //! - With feature `pbr`, [`material::LevelMaterialPlugin`] gives the level's meshes a
 //!   vertex-coloured checker material.
 
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod asset;
+pub mod components;
 pub mod coords;
 pub mod cull;
-pub mod headless;
 #[cfg(feature = "pbr")]
 pub mod material;
 pub mod mesh;
 pub mod spawn;
-pub mod tour;
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetApp, AssetEventSystems};
@@ -40,8 +41,8 @@ use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
 use bevy::transform::TransformSystems;
 
 pub use asset::{GroupMesh, LevelAsset, LevelLoadError, LevelLoader};
-pub use cull::{CullStats, PvsCamera, PvsCameraState, PvsCulled, TouchedLeaves, ViewStats};
-pub use spawn::{BrushModelMesh, ClusterMesh, LevelRoot, LevelSpawned};
+pub use components::{BrushModelMesh, ClusterMesh, LevelRoot, LevelSpawned, PvsCulled, TouchedLeaves};
+pub use cull::{CullStats, PvsCamera, PvsCameraState, ViewStats};
 
 /// The plugin's systems, all in `PostUpdate`, in this order.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -218,7 +218,7 @@ pub fn build(world: &World) -> LevelMeshes {
 mod tests {
     use super::*;
     use bevy::mesh::VertexAttributeValues;
-    use sightline_runtime::synth::grid_level;
+    use sightline_tests::synth::grid_level;
 
     /// Three open cells in a row; cell 1's leaf also lists a face of cell 0 (as a leaf lists a
     /// face it shares with a neighbour).

@@ -15,10 +15,20 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, Mesh3d};
 use bevy::transform::components::Transform;
 use sightline_bevy::coords::to_bevy;
-use sightline_bevy::headless::{self, camera_bundle};
 use sightline_bevy::{ClusterMesh, LevelAsset, LevelRoot, PvsCamera, PvsCameraState, PvsCulled};
 use sightline_formats::rle;
-use sightline_runtime::{World, synth};
+use sightline_runtime::World;
+use sightline_tests::synth;
+
+// The scripted walk of the `walk` example (test scaffolding, not part of the library).
+#[allow(dead_code)]
+#[path = "../examples/walk/headless.rs"]
+mod headless;
+#[allow(dead_code)]
+#[path = "../examples/walk/tour.rs"]
+mod tour;
+
+use headless::camera_bundle;
 
 const CELL: f32 = 64.0;
 

@@ -1,9 +1,9 @@
-//! The GVS backends: the faces guided visibility sampling found visible from the eye's view cell
+//! The GVS backend: the faces guided visibility sampling found visible from the eye's view cell
 //! ([`GvsCells`]), frustum-culled per face box and sorted front to back by the distance from the
 //! eye to the face box.
 //!
-//! [`WorldGvs`], the value in [`super::all`], answers with the cells the world was loaded with
-//! ([`World::gvs_cells`]); [`Gvs`] answers with cells it owns (built from any level).
+//! [`Gvs`], the value in [`super::all`], answers with the cells the world was loaded with
+//! ([`World::gvs_cells`]).
 //!
 //! # Conventions
 //! - The eye's cell, and what a cell lists, are as in [`crate::gvs_cells`].
@@ -13,41 +13,16 @@
 
 use crate::backend::api::Backend;
 use crate::camera::View;
-use crate::error::GvsError;
 use crate::gvs_cells::GvsCells;
 use crate::scratch::{FrameStats, Scratch, Visible};
 use crate::world::World;
-use sightline_formats::level::Level;
-
-/// A GVS backend owning its cells (see the module docs).
-#[derive(Debug, Clone, Default)]
-pub struct Gvs {
-    cells: GvsCells,
-}
-
-impl Gvs {
-    /// A backend answering with `cells`.
-    pub fn new(cells: GvsCells) -> Self {
-        Self { cells }
-    }
-
-    /// Build from a level's GVS lumps, checking every index ([`GvsCells::from_level`]).
-    pub fn from_level(level: &Level) -> Result<Gvs, GvsError> {
-        GvsCells::from_level(level).map(Self::new)
-    }
-
-    /// The cells it answers with.
-    pub fn cells(&self) -> &GvsCells {
-        &self.cells
-    }
-}
 
 /// True when `cells` can answer for `world`: it has cells, made for a level with its face count.
 fn fits(cells: &GvsCells, world: &World) -> bool {
     !cells.is_empty() && world.num_faces() == cells.num_faces()
 }
 
-/// The frame of either backend; back faces (when the view asks) are dropped from the sorted
+/// The frame of the backend; back faces (when the view asks) are dropped from the sorted
 /// list, since no walk outputs these faces.
 fn cull_cells(world: &World, cells: &GvsCells, view: &View, scratch: &mut Scratch, out: &mut Visible) {
     out.leaves.clear();
@@ -58,27 +33,13 @@ fn cull_cells(world: &World, cells: &GvsCells, view: &View, scratch: &mut Scratc
     scratch.stats = FrameStats::default();
 }
 
-impl Backend for Gvs {
-    fn name(&self) -> &'static str {
-        "gvs"
-    }
-
-    fn supports(&self, world: &World) -> bool {
-        fits(&self.cells, world)
-    }
-
-    fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
-        cull_cells(world, &self.cells, view, scratch, out);
-    }
-}
-
 /// The GVS backend over the cells a [`World`] carries ([`World::gvs_cells`]); this is the value in
 /// [`super::all`]. It supports a world loaded from a level with GVS cells; on any other world it
 /// outputs nothing.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct WorldGvs;
+pub struct Gvs;
 
-impl Backend for WorldGvs {
+impl Backend for Gvs {
     fn name(&self) -> &'static str {
         "gvs"
     }

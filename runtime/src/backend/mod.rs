@@ -7,7 +7,7 @@
 //!   frustum walk.
 //! - [`portal::Portal`]: nothing precomputed; recursion through the level's portals, narrowing the
 //!   frustum at each portal polygon, then the same frustum walk over the leaves it reached.
-//! - [`gvs::WorldGvs`]: the faces of the eye's GVS view cell, from the cells the world was loaded
+//! - [`gvs::Gvs`]: the faces of the eye's GVS view cell, from the cells the world was loaded
 //!   with ([`World::gvs_cells`](crate::World::gvs_cells)); it supports only worlds whose level has
 //!   GVS cells, and outputs faces but no leaves.
 //!
@@ -24,7 +24,7 @@ pub use api::Backend;
 
 /// Every backend, default first (check [`Backend::supports`] for a given world).
 pub fn all() -> &'static [&'static dyn Backend] {
-    &[&pvs::Pvs, &portal::Portal, &gvs::WorldGvs]
+    &[&pvs::Pvs, &portal::Portal, &gvs::Gvs]
 }
 
 /// The backend called `name`.

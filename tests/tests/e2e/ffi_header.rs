@@ -1,4 +1,5 @@
-//! The hand-written C header `runtime/include/sightline.h` against `runtime/src/ffi.rs`: every
+//! The hand-written C header `runtime/capi/include/sightline.h` against the sources of
+//! `sightline-capi` (`runtime/capi/src/*.rs`, read as one text, called `ffi.rs` below): every
 //! `#[unsafe(no_mangle)] pub ... extern "C" fn` is declared in the header and every `sl_*`
 //! declaration of the header is exported, with the same parameter and return types under a small
 //! Rust ↔ C type mapping; every `#[repr(C)]` struct has a `typedef struct` with the same fields
@@ -256,10 +257,18 @@ fn drift(header: &str, ffi: &str) -> Vec<String> {
     errors
 }
 
+/// The header, and every source file of `sightline-capi` joined in name order.
 fn sources() -> (String, String) {
-    let root = sightline_tests::workspace_root().join("runtime");
-    let read = |p: &str| std::fs::read_to_string(root.join(p)).expect("read source");
-    (read("include/sightline.h"), read("src/ffi.rs"))
+    let root = sightline_tests::workspace_root().join("runtime/capi");
+    let read = |p: &std::path::Path| std::fs::read_to_string(p).expect("read source");
+    let mut files: Vec<_> = std::fs::read_dir(root.join("src"))
+        .expect("runtime/capi/src")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+        .collect();
+    files.sort();
+    assert!(files.len() > 1, "{files:?}");
+    (read(&root.join("include/sightline.h")), files.iter().map(|p| read(p)).collect::<Vec<_>>().join("\n"))
 }
 
 #[test]
@@ -307,18 +316,12 @@ fn the_header_declares_exactly_the_exported_functions() {
     assert_eq!(constants.len(), rust_constants(&ffi).len());
     // The contents constants are the runtime's contents codes.
     use sightline_formats::level::Contents;
-    use sightline_runtime::ffi;
     let codes =
         [Contents::Empty, Contents::Solid, Contents::Water, Contents::Slime, Contents::Lava, Contents::Sky]
-            .map(Contents::code);
-    let named = [
-        ffi::SL_CONTENTS_EMPTY,
-        ffi::SL_CONTENTS_SOLID,
-        ffi::SL_CONTENTS_WATER,
-        ffi::SL_CONTENTS_SLIME,
-        ffi::SL_CONTENTS_LAVA,
-        ffi::SL_CONTENTS_SKY,
-    ];
+            .map(|c| i64::from(c.code()));
+    let rust = rust_constants(&ffi);
+    let named =
+        ["EMPTY", "SOLID", "WATER", "SLIME", "LAVA", "SKY"].map(|n| rust[&format!("SL_CONTENTS_{n}")]);
     assert_eq!(codes, named);
 }
 

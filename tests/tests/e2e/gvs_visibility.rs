@@ -216,9 +216,9 @@ fn hostile_obj_files_are_errors_not_panics() {
     ]);
     assert!(res.is_ok(), "{res:?}");
     let level = sightline_formats::slvl::read(&std::fs::read(&out).expect("read")).expect("valid slvl");
-    let backend = sightline_runtime::backend::gvs::Gvs::from_level(&level).expect("gvs data");
-    assert_eq!(backend.cells().num_cells(), 1);
-    assert_eq!(backend.cells().cell_faces(0), &[0]);
+    let cells = sightline_runtime::GvsCells::from_level(&level).expect("gvs data");
+    assert_eq!(cells.num_cells(), 1);
+    assert_eq!(cells.cell_faces(0), &[0]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -5,7 +5,8 @@ use sightline::cli::Outcome;
 use sightline::cmd::bench::{Args, run};
 use sightline_formats::level::GvsCell;
 use sightline_formats::slvl;
-use sightline_runtime::{backend, load, synth};
+use sightline_runtime::{backend, load};
+use sightline_tests::synth;
 
 fn args(path: &std::path::Path, backends: &[&str]) -> Args {
     Args {

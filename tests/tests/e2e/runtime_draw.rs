@@ -7,9 +7,9 @@ use glam::Vec3A;
 use sightline_formats::bsp;
 use sightline_formats::entities::Entity;
 use sightline_formats::level::Contents;
-use sightline_runtime::check::sampled_leaves;
 use sightline_runtime::poses::{SplitMix64, point_in, random_open_point};
 use sightline_runtime::{Bitset, World, load};
+use sightline_tests::runtime_check::sampled_leaves;
 
 use super::runtime_real_maps::world_box;
 

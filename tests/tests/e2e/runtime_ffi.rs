@@ -1,4 +1,4 @@
-//! The C ABI: compile a small C program against `runtime/include/sightline.h` and the shared
+//! The C ABI: compile a small C program against `runtime/capi/include/sightline.h` and the shared
 //! library of `sightline-capi` (built as a dev-dependency of this crate), run it on a level
 //! written by the test (and on E1M1 when the shared maps are present), and compare its answers
 //! with the Rust API.
@@ -10,7 +10,8 @@ use glam::Vec3;
 use sightline_formats::level::{FaceDraw, Model};
 use sightline_formats::slvl;
 use sightline_runtime::backend::{Backend, pvs::Pvs};
-use sightline_runtime::{Bitset, Camera, Scratch, Visible, World, load, synth};
+use sightline_runtime::{Bitset, Camera, Scratch, Visible, World, load};
+use sightline_tests::synth;
 
 const PROGRAM: &str = r#"
 #include <stdio.h>
@@ -344,7 +345,7 @@ fn c_program_agrees_with_the_rust_api() {
     }
     let src = tmp.join("prog.c");
     std::fs::write(&src, PROGRAM).expect("write C source");
-    let include = sightline_tests::workspace_root().join("runtime/include");
+    let include = sightline_tests::workspace_root().join("runtime/capi/include");
     // The program against the shared library, and (Linux) against the static one with the system
     // libraries `sightline.pc.in` lists in `Libs.private`.
     let compile = |lib: &Path, out: &Path, extra: &[&str]| {

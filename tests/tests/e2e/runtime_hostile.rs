@@ -5,7 +5,8 @@ use glam::{Vec3, Vec3A};
 use sightline_formats::slvl;
 use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
 use sightline_runtime::poses::{SplitMix64, point_in};
-use sightline_runtime::{Camera, Scratch, Visible, load, synth};
+use sightline_runtime::{Camera, Scratch, Visible, load};
+use sightline_tests::synth;
 
 #[test]
 fn damaged_slvl_files_fail_or_answer() {
@@ -24,9 +25,9 @@ fn damaged_slvl_files_fail_or_answer() {
         slvl::write(&level, &slvl::WriteOptions { compress: false }),
         slvl::write(&level, &slvl::WriteOptions { compress: true }),
     ];
-    assert!(load::load_slvl(&bases[0]).is_ok() && load::load_slvl(&bases[1]).is_ok());
+    assert!(load::load_bytes(&bases[0]).is_ok() && load::load_bytes(&bases[1]).is_ok());
     let gvs = sightline_runtime::backend::by_name("gvs").expect("gvs backend");
-    assert!(gvs.supports(&load::load_slvl(&bases[0]).expect("loads")));
+    assert!(gvs.supports(&load::load_bytes(&bases[0]).expect("loads")));
     // Counts and offsets live in the header and the lump directory.
     let header = slvl::HEADER_BYTES + slvl::LumpKind::ALL.len() * slvl::DIR_ENTRY_BYTES;
     let mut rng = SplitMix64::new(2024);

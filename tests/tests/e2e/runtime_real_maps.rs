@@ -4,9 +4,11 @@
 
 use glam::Vec3A;
 use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
-use sightline_runtime::check::{LeafRegions, order_violations, pvs_leaves, reference_walk, sampled_leaves};
 use sightline_runtime::poses::{SplitMix64, point_in, random_cameras, random_open_point};
 use sightline_runtime::{Scratch, Visible, World, load};
+use sightline_tests::runtime_check::{
+    LeafRegions, order_violations, pvs_leaves, reference_walk, sampled_leaves,
+};
 
 const MAPS: [&str; 2] = ["e1m1_nodetail", "dm2_nodetail"];
 
@@ -193,7 +195,7 @@ fn a_crlf_portal_file_beside_a_real_map_gives_the_same_portals() {
     let copy = dir.join("e1m1_nodetail.vis.bsp");
     std::fs::copy(&bsp, &copy).expect("copy");
     std::fs::write(dir.join("e1m1_nodetail.prt"), prt.replace('\n', "\r\n")).expect("write");
-    assert_eq!(load::sibling_prt(&copy), Some(dir.join("e1m1_nodetail.prt")));
+    assert_eq!(sightline_formats::prt::find_beside_bsp(&copy), Some(dir.join("e1m1_nodetail.prt")));
     let crlf = load::load_path(&copy).expect("loads");
     let lf = load::load_path(&bsp).expect("loads");
     assert!(lf.num_portals() > 1000);

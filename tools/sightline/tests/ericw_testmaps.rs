@@ -158,7 +158,7 @@ fn ericw_vis_test_assertions_hold_with_our_vis_and_rays_find_no_miss() {
         let bsp_path = dir.join(format!("{stem}.bsp"));
         let bytes = std::fs::read(&bsp_path).expect("read vised .bsp");
         let failed = if quake2 {
-            check_q2(m, &load::load_bsp(&bytes).expect("vised Quake 2 .bsp loads"))
+            check_q2(m, &load::load_bytes(&bytes).expect("vised Quake 2 .bsp loads"))
         } else {
             check_q1(m, &spec["contents_codes"]["q1"], &bsp::read(&bytes).expect("vised .bsp reads"))
         };

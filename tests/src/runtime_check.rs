@@ -1,12 +1,11 @@
-//! Brute-force reference answers that tests and tools compare the fast queries against. None of
-//! these walk the tree the way the queries do; they are slow and meant for checking only.
+//! Brute-force reference answers of `sightline-runtime` that tests compare the fast queries
+//! against. None of these walk the tree the way the queries do; they are slow and meant for
+//! checking only. They read the world through its public queries ([`World::root`],
+//! [`World::node`]).
 
 use glam::Vec3A;
 
-use crate::camera::{Frustum, View};
-use crate::query::front_or_near;
-use crate::scratch::Visible;
-use crate::world::{LeafId, World};
+use sightline_runtime::{Bitset, Frustum, LeafId, View, Visible, World};
 
 /// Every leaf region of the world tree as the list of half-spaces on its path from the root:
 /// `(normal, dist, front)` means `normal · p - dist >= 0` when `front`, `< 0` otherwise. A leaf
@@ -23,13 +22,13 @@ impl LeafRegions {
     /// Collect the regions (depth-first from the world root).
     pub fn new(world: &World) -> Self {
         let mut regions = Vec::new();
-        let mut stack = vec![(world.tree().root, Vec::new())];
+        let mut stack = vec![(world.root(), Vec::new())];
         while let Some((child, path)) = stack.pop() {
             if child < 0 {
                 regions.push(((!child) as LeafId, path));
                 continue;
             }
-            let Some(node) = world.tree().nodes.get(child as usize) else { continue };
+            let Some(node) = world.node(child as u32) else { continue };
             for (k, &c) in node.children.iter().enumerate() {
                 let mut p: Vec<HalfSpace> = path.clone();
                 p.push((node.normal, node.dist, k == 0));
@@ -115,17 +114,8 @@ pub fn reference_walk(world: &World, view: &View, marked: &dyn Fn(LeafId) -> boo
     let mut out = Visible::default();
     let mut seen = std::collections::HashSet::new();
     let mut any_below = std::collections::HashMap::new();
-    if subtree_marked(world, world.tree().root, marked, &mut any_below) {
-        reference_visit(
-            world,
-            view,
-            world.tree().root,
-            Frustum::ALL,
-            &any_below,
-            marked,
-            &mut seen,
-            &mut out,
-        );
+    if subtree_marked(world, world.root(), marked, &mut any_below) {
+        reference_visit(world, view, world.root(), Frustum::ALL, &any_below, marked, &mut seen, &mut out);
     }
     out
 }
@@ -141,7 +131,7 @@ fn subtree_marked(
         let l = (!child) as LeafId;
         return world.leaf_contents(l).is_some_and(|c| c.is_open()) && marked(l);
     }
-    let Some(node) = world.tree().nodes.get(child as usize) else { return false };
+    let Some(node) = world.node(child as u32) else { return false };
     let children = node.children;
     let any = children.iter().fold(false, |acc, &c| subtree_marked(world, c, marked, memo) | acc);
     memo.insert(child, any);
@@ -160,8 +150,10 @@ fn reference_visit(
     out: &mut Visible,
 ) {
     if child >= 0 {
-        let Some(node) = world.tree().nodes.get(child as usize) else { return };
-        let Some(mask) = scalar_box_test(&view.frustum, node.center, node.extent, mask) else { return };
+        let Some(node) = world.node(child as u32) else { return };
+        let Some(mask) = scalar_box_test(&view.frustum, node.bounds.center, node.bounds.extent, mask) else {
+            return;
+        };
         let back_first = node.normal.dot(view.eye) - node.dist < 0.0;
         let [front, back] = node.children;
         let (near, far) = if back_first { (back, front) } else { (front, back) };
@@ -184,11 +176,19 @@ fn reference_visit(
         }
         out.leaves.push(l);
         for &f in world.leaf_faces(l) {
-            if seen.insert(f) && (!view.cull_back_faces || front_or_near(world.draw(), f, view.eye)) {
+            if seen.insert(f) && (!view.cull_back_faces || front_or_near(world, f, view.eye)) {
                 out.faces.push(f);
             }
         }
     }
+}
+
+/// Whether `face` is kept by [`View::cull_back_faces`] for an eye at `eye`: the runtime's one
+/// copy of the rule ([`World::cull_back_faces`]), asked about a single face.
+fn front_or_near(world: &World, face: u32, eye: Vec3A) -> bool {
+    let mut one = vec![face];
+    world.cull_back_faces(eye, &mut one);
+    !one.is_empty()
 }
 
 /// The plane-by-plane box test: `None` when outside a plane of `mask`, else the planes the box
@@ -218,7 +218,7 @@ pub fn pvs_leaves(world: &World, eye: Vec3A) -> Vec<bool> {
     let cluster = world.leaf_cluster(world.leaf_at(eye)).filter(|_| world.has_vis());
     match cluster {
         Some(c) => {
-            let mut row = crate::pvs::Bitset::new(0);
+            let mut row = Bitset::new(0);
             world.decode_pvs(c, &mut row);
             for v in row.iter_ones() {
                 for &l in world.cluster_leaves(v as u32) {

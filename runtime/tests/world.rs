@@ -4,13 +4,13 @@
 use glam::{Vec3, Vec3A};
 use sightline_formats::level::Level;
 
-use crate::backend::{Backend, portal::Portal, pvs::Pvs};
-use crate::camera::{BoxSide, Camera, Frustum};
-use crate::check::{LeafRegions, order_violations, sampled_leaves};
-use crate::poses::{SplitMix64, point_in, random_cameras};
-use crate::scratch::{Scratch, Visible};
-use crate::synth::grid_level;
-use crate::world::World;
+use sightline_runtime::backend::{Backend, portal::Portal, pvs::Pvs};
+use sightline_runtime::camera::{BoxSide, Camera, Frustum};
+use sightline_runtime::poses::{SplitMix64, point_in, random_cameras};
+use sightline_runtime::scratch::{Scratch, Visible};
+use sightline_runtime::world::World;
+use sightline_tests::runtime_check::{LeafRegions, order_violations, sampled_leaves};
+use sightline_tests::synth::grid_level;
 
 /// 8×6×3 cells of 64 units with random pillars (about a quarter solid).
 fn pillars(seed: u64) -> Level {
@@ -55,7 +55,7 @@ fn trace_agrees_with_sampling() {
     let mut rng = SplitMix64::new(3);
     let mut hits = 0;
     for _ in 0..1000 {
-        let a = crate::poses::random_open_point(&world, &mut rng).expect("open point");
+        let a = sightline_runtime::poses::random_open_point(&world, &mut rng).expect("open point");
         let b = point_in(&mut rng, Vec3A::splat(-50.0), Vec3A::new(562.0, 434.0, 242.0));
         let samples = 4000;
         let first_solid = sampled_leaves(&world, a, b, samples)
@@ -127,32 +127,6 @@ fn pvs_walk_outputs_frustum_leaves_front_to_back() {
         let want: usize = out.leaves.iter().map(|&l| world.leaf_faces(l).len()).sum();
         assert_eq!(faces.len(), want);
     }
-}
-
-#[test]
-fn walk_allocates_nothing_after_warm_up() {
-    let world = World::new(&pillars(2)).expect("valid");
-    let mut scratch = Scratch::new(&world);
-    let mut out = Visible::for_world(&world);
-    let cams = random_cameras(&world, 9, 200);
-    let caps = (
-        out.leaves.capacity(),
-        out.faces.capacity(),
-        scratch.walk.stack.capacity(),
-        scratch.planes.capacity(),
-    );
-    for cam in &cams {
-        Pvs.cull(&world, &cam.view(), &mut scratch, &mut out);
-    }
-    assert_eq!(
-        caps,
-        (
-            out.leaves.capacity(),
-            out.faces.capacity(),
-            scratch.walk.stack.capacity(),
-            scratch.planes.capacity()
-        )
-    );
 }
 
 #[test]
@@ -338,7 +312,7 @@ fn world_is_shareable_and_scratch_follows_the_world() {
 
 #[test]
 fn fast_walks_equal_the_reference_walk() {
-    use crate::check::{pvs_leaves, reference_walk};
+    use sightline_tests::runtime_check::{pvs_leaves, reference_walk};
     for seed in [12, 13] {
         let level = pillars(seed);
         let trees = World::new(&level).expect("valid");
@@ -392,15 +366,16 @@ fn simd_box_test_equals_the_scalar_test() {
         let c = point_in(&mut rng, Vec3A::splat(-300.0), Vec3A::splat(300.0));
         let e = point_in(&mut rng, Vec3A::ZERO, Vec3A::splat(80.0));
         let mask = rng.below(64) as u8;
-        let want = crate::check::scalar_box_test(&fr, c, e, mask).map_or(BoxSide::Outside, BoxSide::Inside);
+        let want = sightline_tests::runtime_check::scalar_box_test(&fr, c, e, mask)
+            .map_or(BoxSide::Outside, BoxSide::Inside);
         assert_eq!(fr.test_box(c, e, mask), want, "box {c:?} ± {e:?}, mask {mask:#x}");
     }
 }
 
 #[test]
 fn a_world_with_gvs_cells_offers_the_gvs_backend() {
-    use crate::backend::{self, gvs::Gvs};
     use sightline_formats::level::GvsCell;
+    use sightline_runtime::{GvsCells, backend};
     let mut level = pillars(8);
     let plain = World::new(&level).expect("valid");
     let gvs = backend::by_name("gvs").expect("gvs is in backend::all()");
@@ -421,27 +396,32 @@ fn a_world_with_gvs_cells_offers_the_gvs_backend() {
     ];
     let world = World::new(&level).expect("valid with cells");
     assert!(gvs.supports(&world));
-    let standalone = Gvs::from_level(&level).expect("cells");
+    // The backend answers what the level's cells answer directly.
+    let cells = GvsCells::from_level(&level).expect("cells");
     let mut scratch = Scratch::new(&world);
-    let (mut a, mut b) = (Visible::default(), Visible::default());
+    let (mut a, mut b) = (Visible::default(), Vec::new());
     let mut seen = 0;
     for cam in random_cameras(&world, 3, 200) {
-        gvs.cull(&world, &cam.view(), &mut scratch, &mut a);
-        standalone.cull(&world, &cam.view(), &mut scratch, &mut b);
-        assert_eq!(a, b);
+        let view = cam.view();
+        gvs.cull(&world, &view, &mut scratch, &mut a);
+        cells.query(view.eye, &view.frustum, &mut b);
+        if view.cull_back_faces {
+            world.cull_back_faces(view.eye, &mut b);
+        }
+        assert_eq!(a.faces, b);
         assert!(a.leaves.is_empty());
         seen += a.faces.len();
     }
     assert!(seen > 0, "the cells' faces are seen");
     // A damaged GVS lump fails the load.
     level.gvs_faces[0] = faces + 5;
-    assert!(matches!(World::new(&level), Err(crate::LoadError::Invalid(_))));
+    assert!(matches!(World::new(&level), Err(sightline_runtime::LoadError::Invalid(_))));
 }
 
 #[test]
 fn world_new_runs_the_shared_level_rules_then_its_own() {
-    use crate::LoadError;
     use sightline_formats::slvl;
+    use sightline_runtime::LoadError;
     // A rule every reader shares, stated once in `slvl::validate` (the runtime never reads
     // textures, yet rejects what `.slvl` reading rejects).
     let mut level = pillars(9);
@@ -474,7 +454,7 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 
 #[test]
 fn errors_print_each_cause_once_and_name_the_lump() {
-    use crate::LoadError;
+    use sightline_runtime::LoadError;
     let mut level = pillars(9);
     level.faces[0].texture = 99;
     let e = World::new(&level).expect_err("bad texture index");
@@ -492,22 +472,22 @@ fn errors_print_each_cause_once_and_name_the_lump() {
     let path = dir.join("modelless.slvl");
     let bytes = sightline_formats::slvl::write(&level, &sightline_formats::slvl::WriteOptions::default());
     std::fs::write(&path, bytes).expect("write");
-    let e = crate::load::load_path(&path).expect_err("no models");
+    let e = sightline_runtime::load::load_path(&path).expect_err("no models");
     let name = path.display().to_string();
     assert_eq!(
         error_chain(&e),
         format!("{name}: the models lump is empty: the level has no world model (model 0)")
     );
     let missing = dir.join("missing.bsp");
-    let e = crate::load::load_path(&missing).expect_err("missing");
+    let e = sightline_runtime::load::load_path(&missing).expect_err("missing");
     assert_eq!(error_chain(&e).matches(&missing.display().to_string()).count(), 1, "{}", error_chain(&e));
     std::fs::remove_dir_all(&dir).expect("clean up");
 }
 
 #[test]
 fn brush_models_take_the_origin_of_their_entity() {
-    use crate::error::LoadError;
     use sightline_formats::entities::EntityError;
+    use sightline_runtime::error::LoadError;
     let mut level = pillars(3);
     let world_model = level.models[0];
     level.models.push(sightline_formats::level::Model { num_faces: 0, ..world_model });

@@ -1,5 +1,6 @@
 //! A Bevy app without window or GPU ([`app`]) and the scripted walk through a level that the
-//! `walk` example, CI and the tests run ([`walk_file`], [`walk_world`]).
+//! `walk` example, CI and the plugin's tests (`tests/culling.rs`, which include this file) run
+//! ([`walk_file`]).
 //!
 //! The app has Bevy's task pools, assets, meshes, transforms and cameras (with their visibility
 //! systems) and [`SightlinePlugin`]: everything the culling needs, nothing that renders. The walk
@@ -13,13 +14,12 @@ use bevy::app::{App, TaskPoolPlugin};
 use bevy::asset::{AssetPlugin, AssetServer, Assets, Handle, LoadState};
 use bevy::camera::{Camera3d, CameraPlugin, PerspectiveProjection, Projection};
 use bevy::ecs::prelude::*;
-use bevy::mesh::{Mesh, MeshPlugin};
+use bevy::mesh::MeshPlugin;
 use bevy::transform::TransformPlugin;
 use bevy::transform::components::Transform;
-use sightline_runtime::World;
 
 use crate::tour::Tour;
-use crate::{ClusterMesh, CullStats, LevelAsset, LevelRoot, PvsCamera, PvsCulled, SightlinePlugin};
+use sightline_bevy::{ClusterMesh, CullStats, LevelAsset, LevelRoot, PvsCamera, PvsCulled, SightlinePlugin};
 
 /// Longest wait for a level to load through the asset server.
 const LOAD_TIMEOUT: Duration = Duration::from_secs(120);
@@ -49,7 +49,7 @@ pub struct WalkReport {
 
 impl WalkReport {
     /// One JSON object (no trailing newline).
-    pub fn to_json(&self) -> String {
+    pub fn to_json(self) -> String {
         format!(
             "{{\"frames\":{},\"stops\":{},\"meshes\":{},\"culled_frames\":{},\"drawn_avg\":{:.3},\"hidden_avg\":{:.3},\"leaves_avg\":{:.3},\"system_us_avg\":{:.3},\"cull_us_avg\":{:.3}}}",
             self.frames,
@@ -132,17 +132,6 @@ pub fn walk_file(path: &Path, frames: u32) -> Result<WalkReport, WalkError> {
     run(app, handle, &name, frames)
 }
 
-/// Walk a level already in memory.
-pub fn walk_world(world: World, frames: u32) -> Result<WalkReport, WalkError> {
-    let mut app = app(Path::new("."));
-    let level = {
-        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
-        LevelAsset::from_world(world, &mut meshes)
-    };
-    let handle = app.world_mut().resource_mut::<Assets<LevelAsset>>().add(level);
-    run(app, handle, "level", frames)
-}
-
 fn run(mut app: App, handle: Handle<LevelAsset>, name: &str, frames: u32) -> Result<WalkReport, WalkError> {
     let tour = {
         let levels = app.world().resource::<Assets<LevelAsset>>();
@@ -169,7 +158,8 @@ fn run(mut app: App, handle: Handle<LevelAsset>, name: &str, frames: u32) -> Res
         }
         app.update();
         let stats = *app.world().resource::<CullStats>();
-        let view = app.world().get::<crate::PvsCameraState>(camera).map(|s| s.stats()).unwrap_or_default();
+        let view =
+            app.world().get::<sightline_bevy::PvsCameraState>(camera).map(|s| s.stats()).unwrap_or_default();
         drawn += u64::from(stats.drawn);
         hidden += u64::from(stats.hidden);
         leaves += u64::from(view.leaves);

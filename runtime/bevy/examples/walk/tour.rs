@@ -3,7 +3,7 @@
 //!
 //! The stops are the centres of the open, non-sky leaves whose centre lies in the leaf itself
 //! (a leaf's box centre can fall outside a slanted cell), in leaf order, in Bevy's axes and level
-//! units ([`crate::coords`]). Frame `i` of `n` stands at stop `i * stops / n` and looks along a
+//! units ([`sightline_bevy::coords`]). Frame `i` of `n` stands at stop `i * stops / n` and looks along a
 //! heading turned 37° further each frame, level with the floor.
 
 use bevy::math::{Quat, Vec3};
@@ -11,7 +11,7 @@ use bevy::transform::components::Transform;
 use sightline_formats::level::Contents;
 use sightline_runtime::World;
 
-use crate::coords::to_bevy;
+use sightline_bevy::coords::to_bevy;
 
 /// Degrees the heading turns per frame.
 const TURN_DEGREES: f32 = 37.0;
@@ -40,11 +40,6 @@ impl Tour {
     /// Number of stops.
     pub fn len(&self) -> usize {
         self.stops.len()
-    }
-
-    /// True when the level has no stop (no open leaf).
-    pub fn is_empty(&self) -> bool {
-        self.stops.is_empty()
     }
 
     /// The camera's transform (in the level root's space) at `frame` of `frames`; `None` without

@@ -10,6 +10,9 @@
 //! Windowed (build with `--features viewer`): WASD and the mouse fly, `F` freezes culling at the
 //! current eye (fly out and look at what was drawn), `F` again resumes.
 
+mod headless;
+mod tour;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -54,7 +57,7 @@ fn main() -> ExitCode {
     if !args.headless {
         return viewer::run(&args.level);
     }
-    match sightline_bevy::headless::walk_file(&args.level, args.frames) {
+    match headless::walk_file(&args.level, args.frames) {
         Ok(report) if args.json => {
             println!("{}", report.to_json());
             ExitCode::SUCCESS
@@ -87,10 +90,11 @@ mod viewer {
 mod viewer {
     use std::process::ExitCode;
 
+    use crate::tour::Tour;
     use bevy::input::mouse::AccumulatedMouseMotion;
     use bevy::prelude::*;
     use sightline_bevy::material::LevelMaterialPlugin;
-    use sightline_bevy::{LevelAsset, LevelRoot, PvsCamera, SightlinePlugin, tour::Tour};
+    use sightline_bevy::{LevelAsset, LevelRoot, PvsCamera, SightlinePlugin};
 
     #[derive(Resource)]
     struct Level(Handle<LevelAsset>);
@@ -113,7 +117,7 @@ mod viewer {
                 commands.insert_resource(Level(handle.clone()));
                 commands.spawn(LevelRoot(handle));
                 commands.spawn((
-                    sightline_bevy::headless::camera_bundle(),
+                    crate::headless::camera_bundle(),
                     Transform::default(),
                     PointLight { range: 4096.0, intensity: 4.0e8, ..default() },
                 ));
