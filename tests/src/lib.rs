@@ -10,7 +10,7 @@
 pub mod mapgen;
 pub mod shapes;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub mod runtime_check;
 pub mod synth;
@@ -31,6 +31,22 @@ pub fn workspace_root() -> PathBuf {
 /// The bundled small maps (`maps/` in the workspace).
 pub fn bundled_maps() -> PathBuf {
     workspace_root().join("maps")
+}
+
+/// The `sightline` binary cargo built beside the running test executable
+/// (`target/<profile>/sightline`; a test executable sits in `target/<profile>/deps`). `cargo test
+/// --workspace` builds it, since this crate dev-depends on the `sightline` package; panics,
+/// saying so, when it is missing.
+pub fn sightline_binary() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable");
+    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
+    let bin = dir.join(format!("sightline{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        bin.is_file(),
+        "{} is missing: run `cargo test --workspace` (or build -p sightline)",
+        bin.display()
+    );
+    bin
 }
 
 /// Set (to anything but `0` or empty) in CI: a missing shared map is a test failure, not a skip.

@@ -169,12 +169,19 @@ fn results_are_deterministic_across_thread_counts() {
     assert!(a.iter().all(|s| !s.is_empty()));
 }
 
-fn run_cli(args: &[&str]) -> anyhow::Result<sightline::cli::Outcome> {
-    use clap::Parser;
-    let cli = sightline::cli::Cli::try_parse_from(std::iter::once("sightline").chain(args.iter().copied()))?;
-    match &cli.command {
-        sightline::cli::Command::Gvs(a) => sightline::cmd::gvs::run(a),
-        _ => anyhow::bail!("not gvs"),
+/// Runs the real `sightline` binary with `args`: `Ok` on exit 0, `Err` (with its stderr) on exit
+/// 2, the error exit. Anything else (a panic's exit 101, a finding's 1, a signal) fails the test.
+fn run_cli(args: &[&str]) -> Result<(), String> {
+    let out = std::process::Command::new(sightline_tests::sightline_binary())
+        .args(args)
+        .output()
+        .expect("run sightline");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!stderr.contains("panicked"), "sightline {args:?} panicked: {stderr}");
+    match out.status.code() {
+        Some(0) => Ok(()),
+        Some(2) => Err(stderr),
+        _ => panic!("sightline {args:?}: {}\n{stderr}", out.status),
     }
 }
 
@@ -194,10 +201,7 @@ fn hostile_obj_files_are_errors_not_panics() {
         let path = dir.join(format!("{name}.obj"));
         std::fs::write(&path, bytes).expect("write");
         let p = path.to_string_lossy().to_string();
-        let res = std::panic::catch_unwind(|| {
-            run_cli(&["gvs", &p, "--cell", "0,0,0,1,1,1", "--views", "0", "--json"])
-        });
-        let res = res.unwrap_or_else(|_| panic!("{name}: panicked"));
+        let res = run_cli(&["gvs", &p, "--cell", "0,0,0,1,1,1", "--views", "0", "--json"]);
         assert!(res.is_err(), "{name}: accepted");
     }
     // A sane file works end to end and writes a level whose GVS cells the runtime backend reads.

@@ -1,22 +1,29 @@
-//! `sightline bench` through its library entry point: every backend a level supports runs, the
-//! GVS backend only on a level with GVS cells, and asking for an unsupported one is an error.
+//! `sightline bench`, the real binary ([`sightline_tests::sightline_binary`]): every backend a
+//! level supports runs, the GVS backend only on a level with GVS cells, and asking for an
+//! unsupported one is an error (exit 2, the reason on stderr).
 
-use sightline::cli::Outcome;
-use sightline::cmd::bench::{Args, run};
+use std::process::Command;
+
 use sightline_formats::level::GvsCell;
 use sightline_formats::slvl;
 use sightline_runtime::{backend, load};
 use sightline_tests::synth;
 
-fn args(path: &std::path::Path, backends: &[&str]) -> Args {
-    Args {
-        input: path.to_path_buf(),
-        frames: 40,
-        seed: 3,
-        backends: backends.iter().map(|b| b.to_string()).collect(),
-        json: true,
-        no_pvs_trees: backends.is_empty(),
-        cull_back_faces: !backends.is_empty(),
+/// Runs `sightline bench` on `path` over `backends` (none: every backend the level supports):
+/// `Ok` on exit 0, `Err` with its stderr on exit 2; any other exit fails the test.
+fn run(path: &std::path::Path, backends: &[&str]) -> Result<(), String> {
+    let mut cmd = Command::new(sightline_tests::sightline_binary());
+    cmd.arg("bench").arg(path).args(["--frames", "40", "--seed", "3", "--json"]);
+    for b in backends {
+        cmd.arg("--backend").arg(b);
+    }
+    cmd.arg(if backends.is_empty() { "--no-pvs-trees" } else { "--cull-back-faces" });
+    let out = cmd.output().expect("run sightline");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    match out.status.code() {
+        Some(0) => Ok(()),
+        Some(2) => Err(stderr),
+        _ => panic!("{cmd:?}: {}\n{stderr}", out.status),
     }
 }
 
@@ -37,9 +44,9 @@ fn bench_runs_the_gvs_backend_only_when_the_level_has_cells() {
     let gvs = backend::by_name("gvs").expect("gvs backend");
     assert!(!gvs.supports(&load::load_path(&plain).expect("loads")));
     assert!(gvs.supports(&load::load_path(&with_cells).expect("loads")));
-    assert!(matches!(run(&args(&plain, &[])), Ok(Outcome::Clean)));
-    assert!(matches!(run(&args(&with_cells, &["gvs", "pvs"])), Ok(Outcome::Clean)));
-    let err = run(&args(&plain, &["gvs"])).expect_err("no cells, no GVS backend");
-    assert!(err.to_string().contains("no GVS cells"), "{err}");
+    assert_eq!(run(&plain, &[]), Ok(()));
+    assert_eq!(run(&with_cells, &["gvs", "pvs"]), Ok(()));
+    let err = run(&plain, &["gvs"]).expect_err("no cells, no GVS backend");
+    assert!(err.contains("no GVS cells"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,7 +5,6 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use sightline::cli::Outcome;
 use sightline_formats::{bsp, prt, rle};
 use sightline_validate::bsp::BspTree;
 use sightline_validate::pvs::{BitMatrix, level_pvs};
@@ -118,17 +117,21 @@ fn cli_exits_with_a_finding_on_a_bsp_missing_one_visible_pair() {
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("dm1_mutated.bsp");
     std::fs::write(&out, bsp_without_pair(&std::fs::read(&path).unwrap(), a, b)).unwrap();
-    let args = |input: &Path| sightline::cmd::validate::Args {
-        input: input.to_path_buf(),
-        rays: 1_000_000,
-        seed: 1,
-        threads: 2,
-        offset: 0.25,
-        oracle: sightline::cmd::validate::OracleArg::Tree,
-        json: true,
+    // The real binary: exit 1 for a finding (a miss), 0 for a clean PVS.
+    let exit_code = |input: &Path| {
+        let out = std::process::Command::new(sightline_tests::sightline_binary())
+            .arg("validate")
+            .arg(input)
+            .args(["--rays", "1000000", "--seed", "1", "--threads", "2", "--offset", "0.25"])
+            .args(["--oracle", "tree", "--json"])
+            .output()
+            .unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
     };
-    assert_eq!(sightline::cmd::validate::run(&args(&out)).unwrap(), Outcome::Finding);
-    assert_eq!(sightline::cmd::validate::run(&args(&path)).unwrap(), Outcome::Clean);
+    let (code, stderr) = exit_code(&out);
+    assert_eq!(code, Some(1), "the mutated file is a finding: {stderr}");
+    let (code, stderr) = exit_code(&path);
+    assert_eq!(code, Some(0), "the reference file is clean: {stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

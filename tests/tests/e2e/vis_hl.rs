@@ -5,8 +5,10 @@
 //! leaf share its row; the result is the same for 1 and 2 threads; ray sampling finds no miss.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use sightline::cmd::vis::Args;
+use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::{self, Bsp, BspVersion};
 use sightline_formats::prt;
 use sightline_validate::pvs::level_pvs;
@@ -33,9 +35,12 @@ fn copy_in(dir: &Path, base: &str, prt: &str) -> Option<PathBuf> {
     Some(bsp)
 }
 
+/// The drop-in vis of `bsp` (its `.prt` beside it) with `threads` worker threads, written back
+/// into it.
 fn vis(bsp: &Path, threads: usize) -> anyhow::Result<()> {
-    let args = Args { input: bsp.to_path_buf(), threads, no_progress: true, json: true, ..Args::default() };
-    sightline::cmd::vis::run(&args).map(|_| ())
+    let opts = DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
+    dropin::run(bsp, &opts, Hooks::silent(), Instant::now())?;
+    Ok(())
 }
 
 fn read(path: &Path) -> (Vec<u8>, Bsp) {

@@ -6,16 +6,25 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 
 use glam::DVec3;
 use sightline_job::rng::SplitMix64;
 
-use sightline::cmd::vis::{Args, VisFlags};
+use sightline_compiler::dropin::{self, DropInOptions, Hooks};
 use sightline_compiler::vis::{self, VisError, VisOptions, VisPhase, VisProgress, VisResult};
 use sightline_formats::bsp::{self, lump};
 use sightline_formats::prt::{self, PortalFile};
 use sightline_validate::pvs::level_pvs;
 use sightline_validate::{NoProgress, Options, OracleChoice, load, validate};
+
+/// The drop-in vis of the `.bsp` at `path` (its `.prt` beside it) with these vis options, written
+/// back into it.
+fn drop_in(path: &Path, vis: VisOptions) {
+    let opts = DropInOptions { vis, ..DropInOptions::default() };
+    dropin::run(path, &opts, Hooks::silent(), Instant::now())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+}
 
 fn ericw(name: &str) -> Option<PathBuf> {
     sightline_tests::shared_map(&format!("ericw/{name}"))
@@ -239,8 +248,7 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     std::fs::copy(&src_bsp, &bsp_path).unwrap();
     std::fs::copy(&src_prt, &prt_path).unwrap();
     let original = std::fs::read(&bsp_path).unwrap();
-    let args = Args { input: bsp_path.clone(), threads: 2, json: true, ..Args::default() };
-    sightline::cmd::vis::run(&args).unwrap();
+    drop_in(&bsp_path, VisOptions { threads: 2, ..VisOptions::default() });
     let written = std::fs::read(&bsp_path).unwrap();
     let (old, new) = (bsp::read(&original).unwrap(), bsp::read(&written).unwrap());
 
@@ -303,20 +311,18 @@ fn coarsened_vis_hides_no_leaf_a_ray_reaches() {
     let fine_path = dir.join("fine.bsp");
     std::fs::copy(&src_bsp, &fine_path).unwrap();
     std::fs::copy(&src_prt, dir.join("fine.prt")).unwrap();
-    sightline::cmd::vis::run(&Args { input: fine_path.clone(), threads: 2, json: true, ..Args::default() })
-        .unwrap();
+    drop_in(&fine_path, VisOptions { threads: 2, ..VisOptions::default() });
     let fine = bsp_pairs(&fine_path);
     let limits = [
-        ("memory", VisFlags { max_memory: Some(memory), coarsen: true, ..VisFlags::default() }),
-        ("work", VisFlags { max_work: Some(work), coarsen: true, ..VisFlags::default() }),
+        ("memory", VisOptions { max_memory: Some(memory), coarsen: true, ..VisOptions::default() }),
+        ("work", VisOptions { max_work: Some(work), coarsen: true, ..VisOptions::default() }),
     ];
     for (tag, vis) in limits {
         let bsp_path = dir.join(format!("{tag}.bsp"));
         std::fs::copy(&src_bsp, &bsp_path).unwrap();
         std::fs::copy(&src_prt, dir.join(format!("{tag}.prt"))).unwrap();
         // One thread: merges are sized for one, and a second thread's rows may not fit the limit.
-        let args = Args { input: bsp_path.clone(), threads: 1, json: true, vis, ..Args::default() };
-        sightline::cmd::vis::run(&args).unwrap();
+        drop_in(&bsp_path, VisOptions { threads: 1, ..vis });
         let coarse = bsp_pairs(&bsp_path);
         assert!(coarse > fine, "{tag}: {coarse} pairs, fine {fine}: nothing was merged");
         let level = load::load_level(&bsp_path).unwrap();

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use sightline_formats::prt::{self, PrtFormat};
 use sightline_formats::{bsp, slvl};
 use sightline_job::rng::SplitMix64 as Rng;
-use sightline_tests::mutate;
+use sightline_tests::{mutate, sightline_binary as binary};
 
 /// A run taking longer than this is a hang.
 const TIMEOUT: Duration = Duration::from_secs(20);
@@ -50,19 +50,6 @@ const PLACE_WORDS: [&str; 14] = [
     "magic",
     "whole file",
 ];
-
-/// The binary cargo built beside this test executable.
-fn binary() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable");
-    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
-    let bin = dir.join(format!("sightline{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        bin.is_file(),
-        "{} is missing: run `cargo test --workspace` (or build -p sightline)",
-        bin.display()
-    );
-    bin
-}
 
 /// One format: the mutated file's name, its seed, files that sit beside it, and the commands
 /// (`IN` stands for the mutated file).

@@ -1298,10 +1298,29 @@ fn vis_max_work_refuses_or_coarsens_until_the_estimate_is_under() {
     }
 }
 
-/// The command definition passes clap's own checks (they run only in debug builds otherwise),
-/// with every deferred subcommand built.
+/// Every subcommand's help builds and prints: `sightline --help` lists the subcommands (at least
+/// the known ones), and `sightline <sub> --help` exits 0 with a usage line naming it. (clap's own
+/// definition checks, `debug_assert`, are the binary's unit test.)
 #[test]
-fn the_command_line_definition_is_consistent() {
-    use clap::CommandFactory;
-    sightline::cli::Cli::command().debug_assert();
+fn every_subcommand_prints_its_help() {
+    let top = run(&["--help"]);
+    assert_eq!(code(&top), 0, "{}", stderr(&top));
+    let text = String::from_utf8_lossy(&top.stdout).into_owned();
+    let subcommands: Vec<String> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|name| name != "help")
+        .collect();
+    for known in ["compile", "vis", "portals", "validate", "info", "render", "bench", "gvs"] {
+        assert!(subcommands.iter().any(|s| s == known), "`{known}` missing from --help:\n{text}");
+    }
+    for sub in &subcommands {
+        let o = run(&[sub, "--help"]);
+        assert_eq!(code(&o), 0, "{sub} --help: {}", stderr(&o));
+        let help = String::from_utf8_lossy(&o.stdout);
+        assert!(help.contains("Usage:") && help.contains(sub.as_str()), "{sub} --help:\n{help}");
+    }
 }

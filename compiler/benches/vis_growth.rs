@@ -1,7 +1,7 @@
 //! How vis time grows with the number of portals, on sealed maps from `sightline_tests::mapgen` (rooms,
 //! corridors, stairs, pillars, several storeys) compiled by `sightline_compiler::compile`.
 //!
-//! `cargo bench -p sightline --bench vis_growth` prints a Markdown table: rooms, storeys, vis
+//! `cargo bench -p sightline-compiler --bench vis_growth` prints a Markdown table: rooms, storeys, vis
 //! leaves, portals, full vis seconds (wall and CPU, 2 threads), chains, average visible leaves,
 //! fast vis seconds. `-- --write DIR` instead writes the maps (`gen_RxRxS.map`) for measuring the
 //! `sightline` binary itself or other compilers.

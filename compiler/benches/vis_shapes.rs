@@ -3,7 +3,7 @@
 //! around one many-sided pillar and a room of many tiny brushes (both compiled by
 //! `sightline_compiler::compile` without vis).
 //!
-//! `cargo bench -p sightline --bench vis_shapes` prints a Markdown table: shape, size, vis leaves,
+//! `cargo bench -p sightline-compiler --bench vis_shapes` prints a Markdown table: shape, size, vis leaves,
 //! portals, full vis seconds (wall and CPU, 2 threads), peak resident memory of the vis alone,
 //! chains, average visible leaves. `-- --write DIR` instead writes the inputs (`corridor_N.prt`,
 //! `pillar_N.map`, `tiny_N.map`) for measuring the `sightline` binary itself (or other compilers);
