@@ -34,14 +34,17 @@ fn vised_copy(bsp: &Path, prt: &Path, name: &str) -> (PathBuf, PathBuf) {
     let ours = dir.join(format!("{name}.bsp"));
     std::fs::copy(bsp, &ours).expect("copy .bsp");
     std::fs::copy(prt, dir.join(format!("{name}.prt"))).expect("copy .prt");
-    let args = sightline::cmd::vis::Args {
-        input: ours.clone(),
-        threads: 2,
-        no_progress: true,
-        json: true,
+    let opts = sightline_compiler::dropin::DropInOptions {
+        vis: sightline_compiler::vis::VisOptions { threads: 2, ..Default::default() },
         ..Default::default()
     };
-    sightline::cmd::vis::run(&args).expect("vis");
+    sightline_compiler::dropin::run(
+        &ours,
+        &opts,
+        sightline_compiler::dropin::Hooks::silent(),
+        std::time::Instant::now(),
+    )
+    .expect("vis");
     (dir, ours)
 }
 
