@@ -9,7 +9,7 @@ use crate::{Bvh, MAX_LEAF, STACK, STACK_SMALL};
 /// SAH bins per axis.
 const BINS: usize = 16;
 /// Cost of one node traversal relative to one triangle test. The triangles of a leaf are tested
-/// four at a time ([`Block`]), so a node costs about as much as four triangles: every node of at
+/// four at a time ([`Block`](crate::node::Block)), so a node costs about as much as four triangles: every node of at
 /// most [`MAX_LEAF`] triangles becomes a leaf (measured against 0.6 with one-at-a-time tests:
 /// +9–14 % GVS rays per second on the sphere cloud, the city's GVS unchanged, its very coherent
 /// ID-buffer rays 10 % slower).
