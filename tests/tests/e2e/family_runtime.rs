@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use sightline::cmd::info::{self, Details};
+use serde_json::{Value, json};
 use sightline_formats::bsp::{self, q2};
 use sightline_runtime::{Bitset, World, load};
 use sightline_validate::pvs::level_pvs;
@@ -34,14 +34,17 @@ fn vised_copy(bsp: &Path, prt: &Path, name: &str) -> (PathBuf, PathBuf) {
     let ours = dir.join(format!("{name}.bsp"));
     std::fs::copy(bsp, &ours).expect("copy .bsp");
     std::fs::copy(prt, dir.join(format!("{name}.prt"))).expect("copy .prt");
-    let args = sightline::cmd::vis::Args {
-        input: ours.clone(),
-        threads: 2,
-        no_progress: true,
-        json: true,
+    let opts = sightline_compiler::dropin::DropInOptions {
+        vis: sightline_compiler::vis::VisOptions { threads: 2, ..Default::default() },
         ..Default::default()
     };
-    sightline::cmd::vis::run(&args).expect("vis");
+    sightline_compiler::dropin::run(
+        &ours,
+        &opts,
+        sightline_compiler::dropin::Hooks::silent(),
+        std::time::Instant::now(),
+    )
+    .expect("vis");
     (dir, ours)
 }
 
@@ -120,41 +123,54 @@ fn half_life_worlds_locate_points_and_decode_rows_as_the_file() {
     }
 }
 
-fn bsp_info(path: &Path) -> Details {
-    info::report(path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display())).details
+/// The `--json` report of `sightline info` (the real binary) on `path`.
+fn bsp_info(path: &Path) -> Value {
+    crate::info_cli::info(path)
+}
+
+/// The fields `keys` of `report`, in order.
+fn fields(report: &Value, keys: &[&str]) -> Vec<Value> {
+    keys.iter().map(|k| report[*k].clone()).collect()
 }
 
 #[test]
 fn info_reports_the_published_counts_of_quake2_and_half_life_files() {
     // q2/README.md: dm2.ericw has 869 clusters, 77,959 PVS pairs, 250,130 PHS pairs.
     if let Some(p) = shared("q2/dm2.ericw.bsp") {
-        let Details::Bsp { game, version, clusters, pvs_pairs, phs_pairs, has_vis, models, leaves, .. } =
-            bsp_info(&p)
-        else {
-            panic!("not a bsp")
-        };
-        assert_eq!((game, version, clusters, has_vis), ("quake2", "IBSP38", Some(869), true));
-        assert_eq!((pvs_pairs, phs_pairs), (Some(77_959), Some(250_130)));
-        assert_eq!((leaves, models), (2527, 36));
+        let r = bsp_info(&p);
+        assert_eq!(r["kind"], "bsp", "not a bsp: {r}");
+        assert_eq!(
+            fields(&r, &["game", "version", "clusters", "has_vis"]),
+            [json!("quake2"), json!("IBSP38"), json!(869), json!(true)]
+        );
+        assert_eq!(fields(&r, &["pvs_pairs", "phs_pairs"]), [json!(77_959), json!(250_130)]);
+        assert_eq!(fields(&r, &["leaves", "models"]), [json!(2527), json!(36)]);
     }
     if let Some(p) = shared("q2/dm2.bsp") {
-        let Details::Bsp { has_vis, pvs_pairs, clusters, .. } = bsp_info(&p) else { panic!("not a bsp") };
-        assert_eq!((has_vis, pvs_pairs, clusters), (false, None, Some(869)));
+        let r = bsp_info(&p);
+        assert_eq!(r["kind"], "bsp", "not a bsp: {r}");
+        assert_eq!(
+            fields(&r, &["has_vis", "pvs_pairs", "clusters"]),
+            [json!(false), Value::Null, json!(869)]
+        );
     }
     // hl/README.md: lq_e0m1.sdhlt.vis has 658 visleafs, 8,871 visdata bytes, 58,979 pairs.
     if let Some(p) = shared("hl/lq_e0m1.sdhlt.vis.bsp") {
-        let Details::Bsp { game, version, visleafs, visdata_bytes, pvs_pairs, phs_pairs, .. } = bsp_info(&p)
-        else {
-            panic!("not a bsp")
-        };
-        assert_eq!((game, version, visleafs, visdata_bytes), ("half-life", "BSP30", 658, 8871));
-        assert_eq!((pvs_pairs, phs_pairs), (Some(58_979), None));
+        let r = bsp_info(&p);
+        assert_eq!(r["kind"], "bsp", "not a bsp: {r}");
+        assert_eq!(
+            fields(&r, &["game", "version", "visleafs", "visdata_bytes"]),
+            [json!("half-life"), json!("BSP30"), json!(658), json!(8871)]
+        );
+        assert_eq!(fields(&r, &["pvs_pairs", "phs_pairs"]), [json!(58_979), Value::Null]);
     }
     if let Some(p) = shared("hl/lq_e0m1.sdhlt.prt") {
-        let Details::Prt { format, leaves, clusters, portals, .. } = bsp_info(&p) else {
-            panic!("not a prt")
-        };
-        assert_eq!((format, leaves, clusters, portals), ("vhlt", 658, 371, 775));
+        let r = bsp_info(&p);
+        assert_eq!(r["kind"], "prt", "not a prt: {r}");
+        assert_eq!(
+            fields(&r, &["format", "leaves", "clusters", "portals"]),
+            [json!("vhlt"), json!(658), json!(371), json!(775)]
+        );
     }
 }
 

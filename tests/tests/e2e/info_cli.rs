@@ -1,21 +1,51 @@
-//! `sightline info`: snapshots of the JSON report for every bundled map, counts checked against an
-//! independent brace scan and against the reference compiler's published numbers.
+//! `sightline info`, the real binary ([`sightline_tests::sightline_binary`]): snapshots of the
+//! JSON report for every bundled map, counts checked against an independent brace scan and
+//! against the reference compiler's published numbers.
 
 use std::path::Path;
 
-use sightline::cmd::info::{self, Details};
+use serde_json::{Value, json};
 
 use crate::brace_scan;
 use brace_scan::brace_scan;
 
-fn details_json(path: &Path) -> serde_json::Value {
-    let report = info::report(path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
-    assert_eq!(report.file, path.display().to_string());
-    let json = serde_json::to_value(&report).expect("serializable");
-    let mut object = json.as_object().expect("an object").clone();
+/// `sightline info PATH --json`: the report on exit 0 (its `file` is the path as given), or what
+/// it printed on stderr on exit 2. Any other exit fails the test.
+pub(crate) fn info_report(path: &Path) -> Result<Value, String> {
+    let out = std::process::Command::new(sightline_tests::sightline_binary())
+        .arg("info")
+        .arg(path)
+        .arg("--json")
+        .output()
+        .expect("run sightline");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    match out.status.code() {
+        Some(0) => {
+            let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+                panic!(
+                    "{}: stdout is not JSON ({e}): {}",
+                    path.display(),
+                    String::from_utf8_lossy(&out.stdout)
+                )
+            });
+            assert_eq!(report["file"], json!(path.display().to_string()));
+            Ok(report)
+        }
+        Some(2) => Err(stderr),
+        _ => panic!("sightline info {}: {}\n{stderr}", path.display(), out.status),
+    }
+}
+
+/// [`info_report`] of a file that must read.
+pub(crate) fn info(path: &Path) -> Value {
+    info_report(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn details_json(path: &Path) -> Value {
+    let mut object = info(path).as_object().expect("an object").clone();
     // The path depends on the checkout; everything else is stable.
     object.remove("file");
-    serde_json::Value::Object(object)
+    Value::Object(object)
 }
 
 #[test]
@@ -47,11 +77,12 @@ fn map_counts_match_an_independent_scan() {
     for path in paths {
         let text = std::fs::read_to_string(&path).expect("readable");
         let expect = brace_scan(&text);
-        let report = info::report(&path).expect("parses");
-        let Details::Map { entities, brushes, sides, .. } = report.details else {
-            panic!("{}: not reported as a map", path.display())
-        };
-        assert_eq!((entities, brushes, sides), (expect.entities, expect.brushes, expect.sides));
+        let report = info(&path);
+        assert_eq!(report["kind"], "map", "{}: not reported as a map", path.display());
+        assert_eq!(
+            (&report["entities"], &report["brushes"], &report["sides"]),
+            (&json!(expect.entities), &json!(expect.brushes), &json!(expect.sides))
+        );
     }
 }
 
@@ -60,26 +91,29 @@ fn e1m1_matches_the_reference_numbers() {
     let Some(root) = sightline_tests::shared_maps() else { return };
     // anchors.md: ericw-tools on E1M1 gives 1,344 leaves, 1,167 clusters, 3,062 portals,
     // average 164.8 visible leaves, max 401, visdata 48,908 bytes; the map has 1,257 brushes.
-    let report = info::report(&root.join("ericw/e1m1.vis.bsp")).expect("reads");
-    let Details::Bsp { version, visleafs, visdata_bytes, has_vis, pvs: Some(pvs), .. } = report.details
-    else {
-        panic!("not a vis-ed BSP: {report:?}")
-    };
-    assert_eq!((version, visleafs, visdata_bytes, has_vis), ("BSP29", 1344, 48_908, true));
-    assert_eq!(format!("{:.1}", pvs.avg_visible_leaves), "164.8");
-    assert_eq!(pvs.max_visible_leaves, 401);
+    let report = info(&root.join("ericw/e1m1.vis.bsp"));
+    let pvs = &report["pvs"];
+    assert!(report["kind"] == "bsp" && pvs.is_object(), "not a vis-ed BSP: {report}");
+    assert_eq!(
+        [&report["version"], &report["visleafs"], &report["visdata_bytes"], &report["has_vis"]],
+        [&json!("BSP29"), &json!(1344), &json!(48_908), &json!(true)]
+    );
+    assert_eq!(format!("{:.1}", pvs["avg_visible_leaves"].as_f64().expect("number")), "164.8");
+    assert_eq!(pvs["max_visible_leaves"], 401);
 
-    let report = info::report(&root.join("ericw/e1m1.prt")).expect("reads");
-    assert!(
-        matches!(
-            report.details,
-            Details::Prt { format: "prt2", leaves: 1344, clusters: 1167, portals: 3062, .. }
-        ),
-        "{report:?}"
+    let report = info(&root.join("ericw/e1m1.prt"));
+    assert_eq!(
+        [&report["kind"], &report["format"], &report["leaves"], &report["clusters"], &report["portals"]],
+        [&json!("prt"), &json!("prt2"), &json!(1344), &json!(1167), &json!(3062)],
+        "{report}"
     );
 
-    let report = info::report(&root.join("id/e1m1.map")).expect("reads");
-    assert!(matches!(report.details, Details::Map { brushes: 1257, format: "standard", .. }), "{report:?}");
+    let report = info(&root.join("id/e1m1.map"));
+    assert_eq!(
+        [&report["kind"], &report["brushes"], &report["format"]],
+        [&json!("map"), &json!(1257), &json!("standard")],
+        "{report}"
+    );
 }
 
 #[test]
@@ -93,19 +127,22 @@ fn slvl_statistics_equal_the_bsp_they_came_from() {
     // No extension: the kind must come from the magic bytes.
     let slvl = dir.join("dm1_level");
     std::fs::write(&slvl, sightline_formats::slvl::write(&level, &Default::default())).expect("writable");
-    let from_slvl = info::report(&slvl).expect("reads");
-    let from_bsp = info::report(&root.join("ericw/dm1.vis.bsp")).expect("reads");
+    let from_slvl = info(&slvl);
+    let from_bsp = info(&root.join("ericw/dm1.vis.bsp"));
     std::fs::remove_dir_all(&dir).ok();
-    let (
-        Details::Slvl { vis_leaves, pvs: Some(a), has_vis: true, .. },
-        Details::Bsp { visleafs, pvs: Some(b), .. },
-    ) = (&from_slvl.details, &from_bsp.details)
-    else {
-        panic!("{from_slvl:?} / {from_bsp:?}")
-    };
-    assert_eq!(vis_leaves, visleafs);
-    assert_eq!(a.max_visible_leaves, b.max_visible_leaves);
-    assert!((a.avg_visible_leaves - b.avg_visible_leaves).abs() < 1e-9);
+    let (a, b) = (&from_slvl["pvs"], &from_bsp["pvs"]);
+    assert!(
+        from_slvl["kind"] == "slvl"
+            && from_slvl["has_vis"] == true
+            && a.is_object()
+            && from_bsp["kind"] == "bsp"
+            && b.is_object(),
+        "{from_slvl} / {from_bsp}"
+    );
+    assert_eq!(from_slvl["vis_leaves"], from_bsp["visleafs"]);
+    assert_eq!(a["max_visible_leaves"], b["max_visible_leaves"]);
+    let avg = |v: &Value| v["avg_visible_leaves"].as_f64().expect("number");
+    assert!((avg(a) - avg(b)).abs() < 1e-9);
 }
 
 #[test]
@@ -119,12 +156,14 @@ fn kind_comes_from_magic_without_an_extension() {
     std::fs::copy(bundled.join("scene.obj"), &obj).expect("copy");
     let junk = dir.join("junk.bin");
     std::fs::write(&junk, [0xde, 0xad, 0xbe, 0xef, 0, 1, 2]).expect("write");
-    let results = (info::report(&map), info::report(&obj), info::report(&junk));
+    let results = (info_report(&map), info_report(&obj), info_report(&junk));
     std::fs::remove_dir_all(&dir).ok();
-    assert!(matches!(results.0.expect("map").details, Details::Map { brushes: 6, .. }));
-    assert!(matches!(results.1.expect("obj").details, Details::Obj { triangles: 48, .. }));
+    let map = results.0.expect("map");
+    assert!(map["kind"] == "map" && map["brushes"] == 6, "{map}");
+    let obj = results.1.expect("obj");
+    assert!(obj["kind"] == "obj" && obj["triangles"] == 48, "{obj}");
     let err = results.2.expect_err("unknown kind");
-    assert!(err.to_string().contains("unknown file kind"), "{err}");
+    assert!(err.contains("unknown file kind"), "{err}");
 }
 
 #[test]
@@ -134,8 +173,7 @@ fn errors_name_the_file_and_place() {
     let bad = dir.join("bad.map");
     std::fs::write(&bad, "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 1 1 1 ) ( 2 2 2 ) T 0 0 0 1 1\n")
         .expect("write");
-    let err = info::report(&bad).expect_err("degenerate side");
+    let msg = info_report(&bad).expect_err("degenerate side");
     std::fs::remove_dir_all(&dir).ok();
-    let msg = format!("{err:#}");
     assert!(msg.contains("bad.map:4:1: entity 0 brush 0 side 0: degenerate plane"), "{msg}");
 }

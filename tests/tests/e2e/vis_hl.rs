@@ -38,7 +38,8 @@ fn copy_in(dir: &Path, base: &str, prt: &str) -> Option<PathBuf> {
 /// The drop-in vis of `bsp` (its `.prt` beside it) with `threads` worker threads, written back
 /// into it.
 fn vis(bsp: &Path, threads: usize) -> anyhow::Result<()> {
-    let opts = DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
+    let opts =
+        DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
     dropin::run(bsp, &opts, Hooks::silent(), Instant::now())?;
     Ok(())
 }

@@ -4,8 +4,10 @@
 //! PVS byte.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use sightline::cmd::vis::Args;
+use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::q2::{self, Q2Bsp, Q2Row};
 
 fn q2_map(name: &str) -> Option<PathBuf> {
@@ -18,15 +20,16 @@ fn temp_dir(tag: &str) -> PathBuf {
     dir
 }
 
-fn args(input: &Path, phs_only: bool) -> Args {
-    Args {
-        input: input.to_path_buf(),
-        threads: 2,
-        no_progress: true,
-        json: true,
+/// The drop-in vis of `input` with two threads (only its PHS under `phs_only`), written back into
+/// it.
+fn vis(input: &Path, phs_only: bool) {
+    let opts = DropInOptions {
+        vis: VisOptions { threads: 2, ..VisOptions::default() },
         phs_only,
-        ..Args::default()
-    }
+        ..DropInOptions::default()
+    };
+    dropin::run(input, &opts, Hooks::silent(), Instant::now())
+        .unwrap_or_else(|e| panic!("{}: {e}", input.display()));
 }
 
 /// Copies `name` (and, when given, the `.prt`) into a fresh folder as `base.bsp`, writable.
@@ -93,7 +96,7 @@ fn q2_vis_writes_pvs_and_true_phs_no_looser_than_the_references() {
         let dir = temp_dir(map);
         let bsp = copy_in(&dir, &format!("{map}.bsp"), Some(&prt), map).unwrap();
         let original = std::fs::read(&bsp).unwrap();
-        sightline::cmd::vis::run(&args(&bsp, false)).unwrap();
+        vis(&bsp, false);
         let written = std::fs::read(&bsp).unwrap();
         let (old, new) = (q2::read(&original).unwrap(), q2::read(&written).unwrap());
         assert_eq!(other_lumps(&original, &old), other_lumps(&written, &new), "{map}: other lumps");
@@ -139,7 +142,7 @@ fn phs_only_repairs_ericw_phs_and_keeps_every_pvs_byte() {
         let (fixed, report) = sightline_compiler::phs::repair_phs(&original).unwrap();
         assert_eq!(report.rows_fixed, wrong, "{name}: rows fixed");
         assert_eq!(report.bits_removed, 0, "{name}: ericw's PHS only misses bits");
-        sightline::cmd::vis::run(&args(&bsp, true)).unwrap();
+        vis(&bsp, true);
         let written = std::fs::read(&bsp).unwrap();
         assert_eq!(written, fixed, "{name}: the CLI writes what the library returns");
         let new = q2::read(&written).unwrap();

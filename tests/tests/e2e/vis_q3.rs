@@ -3,8 +3,10 @@
 //! the same bytes, and q3map2's portal orientation is the one vis assumes.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use sightline::cmd::vis::Args;
+use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::q3;
 use sightline_formats::prt;
 use sightline_validate::{NoProgress, Options, OracleChoice, pvs::level_pvs, validate};
@@ -27,8 +29,9 @@ fn copy_in(map: &str, tag: &str) -> Option<PathBuf> {
 }
 
 fn vis(bsp: &Path, threads: usize) -> Vec<u8> {
-    let args = Args { input: bsp.to_path_buf(), threads, no_progress: true, json: true, ..Args::default() };
-    sightline::cmd::vis::run(&args).expect("vis");
+    let opts =
+        DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
+    dropin::run(bsp, &opts, Hooks::silent(), Instant::now()).expect("vis");
     std::fs::read(bsp).expect("read back")
 }
 

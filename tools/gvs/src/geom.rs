@@ -234,7 +234,7 @@ impl Cell {
         ])
     }
 
-    /// The ray of [`Cell::sample_ray`] at the Halton point `x` (see [`Halton5`]).
+    /// The ray of [`Cell::sample_ray`] at the Halton point `x` (see `Halton5`).
     pub fn ray_at(&self, x: [f32; 5]) -> (Vec3, Vec3) {
         let d = self.max - self.min;
         let areas = [d.y * d.z, d.y * d.z, d.x * d.z, d.x * d.z, d.x * d.y, d.x * d.y];

@@ -1,10 +1,10 @@
 //! Guided visibility sampling of one box view cell (Wonka et al. 2006, with the extensions of the
 //! thesis digested in `reference/seeds/000_gvs_thesis.md`).
 //!
-//! The loop: a quasi-random ray leaves the cell ([`Cell::sample_ray`], through [`Halton5`]); every ray whose first hit
+//! The loop: a quasi-random ray leaves the cell ([`Cell::sample_ray`], through `Halton5`); every ray whose first hit
 //! is a triangle not yet in the PVS adds it (with the ray's origin and hit point) and queues it as a
 //! seed. Each seed gets adaptive border sampling (ABS): rays from the seed's origin to the nine
-//! points of the enlarged outline ([`enlarge`]) and along its nine edges, either by recursive
+//! points of the enlarged outline (`enlarge`) and along its nine edges, either by recursive
 //! bisection (stock GVS, depth-capped, optionally with a distance-scaled threshold) or by the
 //! edge-point walk (one ray per object along the edge). Every point and edge ray is checked for a
 //! depth discontinuity (hit much nearer than the aimed point); a discontinuity starts reverse

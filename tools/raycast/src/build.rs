@@ -7,13 +7,13 @@ use crate::node::{Node, Prepared};
 use crate::{Bvh, MAX_LEAF, STACK, STACK_SMALL};
 
 /// SAH bins per axis.
-pub(crate) const BINS: usize = 16;
+const BINS: usize = 16;
 /// Cost of one node traversal relative to one triangle test. The triangles of a leaf are tested
-/// four at a time ([`Block`]), so a node costs about as much as four triangles: every node of at
+/// four at a time ([`Block`](crate::node::Block)), so a node costs about as much as four triangles: every node of at
 /// most [`MAX_LEAF`] triangles becomes a leaf (measured against 0.6 with one-at-a-time tests:
 /// +9–14 % GVS rays per second on the sphere cloud, the city's GVS unchanged, its very coherent
 /// ID-buffer rays 10 % slower).
-pub(crate) const TRAVERSAL_COST: f32 = 4.0;
+const TRAVERSAL_COST: f32 = 4.0;
 
 /// A node while building: a box, then either the first child (interior, `count == 0`; the second
 /// child is `first + 1`) or the first triangle of a leaf (`count > 0`).
@@ -26,25 +26,25 @@ pub(crate) struct BuildNode {
 }
 
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Bounds {
-    pub(crate) min: Vec3,
-    pub(crate) max: Vec3,
+struct Bounds {
+    min: Vec3,
+    max: Vec3,
 }
 
 impl Bounds {
     const EMPTY: Bounds = Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
 
-    pub(crate) fn grow(&mut self, p: Vec3) {
+    fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
-    pub(crate) fn join(&mut self, o: &Bounds) {
+    fn join(&mut self, o: &Bounds) {
         self.min = self.min.min(o.min);
         self.max = self.max.max(o.max);
     }
 
-    pub(crate) fn half_area(&self) -> f32 {
+    fn half_area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     }
@@ -52,9 +52,9 @@ impl Bounds {
 
 /// Per-triangle build data.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Item {
-    pub(crate) bounds: Bounds,
-    pub(crate) centre: Vec3,
+struct Item {
+    bounds: Bounds,
+    centre: Vec3,
 }
 
 impl Bvh {
@@ -123,7 +123,7 @@ impl Bvh {
 
 /// Choose a split of `perm` (the triangles of `node`) by binned SAH; returns the count of the left
 /// part, or `None` for a leaf.
-pub(crate) fn split(items: &[Item], perm: &mut [u32], node: &BuildNode) -> Option<usize> {
+fn split(items: &[Item], perm: &mut [u32], node: &BuildNode) -> Option<usize> {
     let n = perm.len();
     if n <= 1 {
         return None;
@@ -186,12 +186,12 @@ pub(crate) fn split(items: &[Item], perm: &mut [u32], node: &BuildNode) -> Optio
     }
 }
 
-pub(crate) fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
+fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     (((c - lo) * scale) as usize).min(BINS - 1)
 }
 
 /// Move the elements satisfying `pred` to the front; returns how many they are.
-pub(crate) fn partition(s: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
+fn partition(s: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
     let mut i = 0;
     for j in 0..s.len() {
         if pred(s[j]) {

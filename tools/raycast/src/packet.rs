@@ -24,7 +24,7 @@ use crate::triangle::{Ray, dominant_axis, tri_hit};
 use crate::{Bvh, Hit, STACK_DEEP, STACK_SMALL, WIDEN};
 
 /// Most rays in one packet.
-pub(crate) const LANES: usize = 16;
+const LANES: usize = 16;
 
 /// One `f32` per lane.
 type F = [f32; LANES];

@@ -46,12 +46,7 @@ impl Bvh {
     /// [`Bvh::overlapping`] through the 4-wide tree (four child boxes, then four triangle boxes, per
     /// SIMD test), children in lane order: the binary tree's left-to-right order, so triangles come
     /// in build order. `N` is a stack of at least the tree's need (as in `walk`).
-    pub(crate) fn overlapping_in<const N: usize>(
-        &self,
-        min: Vec3,
-        max: Vec3,
-        mut f: impl FnMut(u32) -> bool,
-    ) {
+    fn overlapping_in<const N: usize>(&self, min: Vec3, max: Vec3, mut f: impl FnMut(u32) -> bool) {
         let Some(root) = self.nodes.first() else {
             return;
         };

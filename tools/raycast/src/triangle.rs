@@ -114,11 +114,7 @@ impl Block {
     }
 
     /// [`tri_hit`] on the block's triangles one after the other.
-    pub(crate) fn hit_scalar<const KZ: usize>(
-        &self,
-        ray: &Ray,
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
+    fn hit_scalar<const KZ: usize>(&self, ray: &Ray, t_max: f32) -> Option<(usize, f32, f32, f32)> {
         let mut best = None;
         let mut t_best = t_max;
         for lane in 0..self.n as usize {

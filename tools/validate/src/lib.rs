@@ -6,7 +6,7 @@
 //!
 //! # Validation
 //! Ray sampling finds a lower bound of the true visible set and compares it with the PVS.
-//! From points inside every open leaf's convex cell, bundles of parallel rays (see [`sample`]) are
+//! From points inside every open leaf's convex cell, bundles of parallel rays (see `sample`) are
 //! cast in uniform directions against one of two oracles:
 //! - **tree**: rays walk the level's BSP tree and stop in the first solid leaf;
 //! - **mesh**: rays stop at the first world face (triangles in a BVH; liquid faces, texture names

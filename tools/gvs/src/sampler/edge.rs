@@ -12,7 +12,7 @@ const WALK_STEPS: u32 = 64;
 
 impl Gvs<'_> {
     /// Cast an edge ray at `p`, handle it and check it for a discontinuity.
-    pub(super) fn edge_ray(&mut self, o: Vec3, p: Vec3, e2: Vec3) -> Sample {
+    fn edge_ray(&mut self, o: Vec3, p: Vec3, e2: Vec3) -> Sample {
         let s = self.handle(o, p - o, Class::Edge);
         self.check_discontinuity(o, p, s, e2);
         s

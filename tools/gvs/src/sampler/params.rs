@@ -53,7 +53,7 @@ pub struct Params {
     pub first: u64,
     /// Cap on all rays. Default 10 M (the thesis' cap). It is checked between steps, so a run
     /// may pass it by the few rays of one step (a seed's nine outline rays); a run that reaches
-    /// it says so in [`Stats::capped`].
+    /// it says so in [`Stats::capped`](super::Stats::capped).
     pub max_rays: u64,
     /// Cap on random rays. Default 1 M.
     pub max_random: u64,

@@ -19,7 +19,7 @@ const PROBE_FULL: usize = 5;
 /// Fraction of the way from a probed triangle's corner to its centre where the corner rays aim.
 const PROBE_INSET: f32 = 0.1;
 
-/// Default of [`Params::probe_rays`]. The fixed probe rays start at the cell's corners and centre
+/// Default of [`Params::probe_rays`](super::Params::probe_rays). The fixed probe rays start at the cell's corners and centre
 /// only, so a triangle seen through a gap from the cell's inside alone gets no ray through it
 /// (slivers of spheres seen between nearer ones). Measured on the default variant, wrong pixels per view and rays, 0 → 4 → 8:
 /// twelve Quake levels (100 leaf cells each, 500 × 500 px) 0.227 → 0.197 → 0.190 px, +1.3 %,
@@ -30,7 +30,7 @@ const PROBE_INSET: f32 = 0.1;
 pub const PROBE_RAYS: u32 = 8;
 
 /// First Halton index of neighbour probing's random rays, past the cell's seed: far from the
-/// random rays' indices (at most [`Params::max_random`] from the seed), so the two never reuse
+/// random rays' indices (at most [`Params::max_random`](super::Params::max_random) from the seed), so the two never reuse
 /// points.
 pub(super) const PROBE_SEQ_OFFSET: u64 = 1 << 32;
 
@@ -43,17 +43,17 @@ impl Gvs<'_> {
     /// triangle's box (its mesh neighbours, found through the BVH) that is not in the PVS yet is
     /// probed once. Its front is the side it is expected to be seen from: the side the expanded
     /// triangle was seen from, carried over through the windings of their sheet
-    /// ([`super::sheets`]); for a triangle of another sheet, the side that sheet was first seen
+    /// ([`crate::sheets`]); for a triangle of another sheet, the side that sheet was first seen
     /// from in this cell; failing both, the side `(v1 - v0) × (v2 - v0)` points to (triangles
     /// counter-clockwise seen from the front, as in `.obj` meshes and in
-    /// [`super::scene::from_level`]'s triangles). It is probed from points in front of its
+    /// [`crate::scene::from_level`]'s triangles). It is probed from points in front of its
     /// plane (the cell corner furthest in front, the
     /// cell's centre, the three corners next to that corner), one after the other until it is
     /// found, a ray at its centre and then rays near its three corners (those that do not cross
     /// the triangle which hid its centre from that point); then from the other four
     /// corners in front, a ray at its centre (what only one edge of the cell sees: a city facade
     /// tile 90 px large in a moved cell's view); from the corner furthest behind its plane, one
-    /// ray at its centre; last, up to [`Params::probe_rays`] rays from random points of the cell
+    /// ray at its centre; last, up to [`Params::probe_rays`](super::Params::probe_rays) rays from random points of the cell
     /// in front of it at random points of it (Halton), for what is seen only through a gap from
     /// the cell's inside. This finds the slivers next to a
     /// surface's silhouette that only part of the cell sees (seen nearly edge-on, or from the

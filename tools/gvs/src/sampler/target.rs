@@ -9,7 +9,7 @@ use crate::geom::Halton5;
 
 use super::{Class, Gvs};
 
-/// Default of [`Params::target_rays`], the most rays target sampling aims at one triangle (from
+/// Default of [`Params::target_rays`](super::Params::target_rays), the most rays target sampling aims at one triangle (from
 /// as many points of the cell: an object seen through a gap from part of the cell only). Measured on `gen:mixed:2000` (5 cells, 50
 /// views), targets × rays per target: 4 × 4 (the earlier rule) 7.1 wrong pixels per view, 4 × 8
 /// 5.2, 4 × 16 3.1, 4 × 32 3.7, 4 × 64 3.0: past 16 the differences are sampling noise; over 10
@@ -39,7 +39,7 @@ impl Gvs<'_> {
     /// isolated objects far away (the thesis' Table 6 misses at the scene's periphery: neither
     /// connected surfaces nor occluders, so ABS and reverse sampling never reach them), nor lone
     /// triangles among found objects. Once random sampling has ended, every group of nearby
-    /// triangles ([`TargetGroups`], built once per scene) with triangles of unreached surface
+    /// triangles ([`TargetGroups`](crate::targets::TargetGroups), built once per scene) with triangles of unreached surface
     /// components (no triangle of theirs in the PVS; see [`Components`]) has `targets` of those
     /// triangles (spread over them) aimed at, each by up to `target_rays` rays until its
     /// component is reached: from points of the cell (Halton over the cell's volume), at its
