@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use crate::collapse::collapse;
-use crate::node::{Node, Prepared};
+use crate::node::{BuildNode, Node, Prepared};
 use crate::{Bvh, MAX_LEAF, STACK, STACK_SMALL};
 
 /// SAH bins per axis.
@@ -14,16 +14,6 @@ const BINS: usize = 16;
 /// +9–14 % GVS rays per second on the sphere cloud, the city's GVS unchanged, its very coherent
 /// ID-buffer rays 10 % slower).
 const TRAVERSAL_COST: f32 = 4.0;
-
-/// A node while building: a box, then either the first child (interior, `count == 0`; the second
-/// child is `first + 1`) or the first triangle of a leaf (`count > 0`).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct BuildNode {
-    pub(crate) min: Vec3,
-    pub(crate) first: u32,
-    pub(crate) max: Vec3,
-    pub(crate) count: u32,
-}
 
 #[derive(Debug, Clone, Copy)]
 struct Bounds {

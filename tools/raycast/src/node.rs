@@ -3,7 +3,15 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::build::BuildNode;
+/// A node while building: a box, then either the first child (interior, `count == 0`; the second
+/// child is `first + 1`) or the first triangle of a leaf (`count > 0`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BuildNode {
+    pub(crate) min: Vec3,
+    pub(crate) first: u32,
+    pub(crate) max: Vec3,
+    pub(crate) count: u32,
+}
 
 /// A node as traversed: 32 bytes, two SIMD lanes sets; the `w` lanes carry the bits of `first`
 /// (in `lo`) and `count` (in `hi`), as in [`BuildNode`].
