@@ -67,7 +67,7 @@ fn quake2_worlds_answer_the_reference_assertions_and_expose_the_phs() {
     let player_start = [64.0, -176.0, 40.0];
     for path in [&ericw, &ours] {
         let bytes = std::fs::read(path).expect("read");
-        let world = load::load_q2(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let world = load::load_bytes(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert_eq!(world.num_clusters(), 15, "{}", path.display());
         assert!(sees(&world, item_enviro, item_enviro_curve));
         assert!(!sees(&world, item_enviro, player_start_curve));
