@@ -60,10 +60,11 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
 }
 
-/// Load a file. For a Quake 1 or Half-Life `.bsp`, the portal file beside it ([`sibling_prt`], the
-/// rule `vis` follows too) is used when present and in PRT1 form (`\n` or `\r\n` line breaks
-/// alike); a Quake 2 portal file names clusters, not leaves, and is not read. Every error
-/// names the file: [`LoadError::Io`] by itself, the others inside [`LoadError::File`].
+/// Load a file. For a Quake 1 or Half-Life `.bsp`, the portal file beside it
+/// ([`sightline_formats::prt::find_beside_bsp`], the rule `vis` follows too) is used when present
+/// and in PRT1 form (`\n` or `\r\n` line breaks alike); a Quake 2 portal file names clusters, not
+/// leaves, and is not read. Every error names the file: [`LoadError::Io`] by itself, the others
+/// inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
     let io = |source| LoadError::Io { path: path.display().to_string(), source };
     let bytes = std::fs::read(path).map_err(io)?;

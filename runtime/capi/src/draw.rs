@@ -119,8 +119,8 @@ pub unsafe extern "C" fn sl_world_vertices(
 }
 
 /// Name of texture `texture`, NUL-terminated, owned by the world (valid until
-/// [`sl_world_free`]; empty for a texture missing from a BSP). Null, with [`sl_last_error`] set,
-/// for a null world or `texture >= sl_world_num_textures`.
+/// [`sl_world_free`](crate::sl_world_free); empty for a texture missing from a BSP). Null, with
+/// [`sl_last_error`](crate::sl_last_error) set, for a null world or `texture >= sl_world_num_textures`.
 ///
 /// # Safety
 /// `world` must be null or a live world.
@@ -212,7 +212,7 @@ pub unsafe extern "C" fn sl_model(world: *const SlWorld, model: u32, out: *mut S
 }
 
 /// The faces of the world leaves of cluster `cluster`, each once, ascending. Buffer protocol as
-/// [`sl_visible_leaves`]. `SL_ERR_RANGE` when `cluster >= sl_world_num_clusters`.
+/// [`sl_visible_leaves`](crate::sl_visible_leaves). `SL_ERR_RANGE` when `cluster >= sl_world_num_clusters`.
 ///
 /// # Safety
 /// `world` must be a live world, `out_faces` writable for `capacity` entries (may be null when

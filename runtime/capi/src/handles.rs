@@ -1,5 +1,5 @@
-//! The types C sees: the opaque handles [`SlWorld`] and [`SlScratch`], and the `#[repr(C)]`
-//! camera and trace result.
+//! The types C sees: the opaque handles [`SlWorld`] and [`SlScratch`], and the camera and trace
+//! result, laid out as C structs.
 
 use std::ffi::CString;
 
@@ -60,7 +60,7 @@ pub struct SlCamera {
     pub far_dist: f32,
 }
 
-/// Result of [`sl_trace`].
+/// Result of [`sl_trace`](crate::sl_trace).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SlTrace {

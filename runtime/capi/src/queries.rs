@@ -237,7 +237,8 @@ pub unsafe extern "C" fn sl_phs_row(
 /// The open (non-solid) world leaves that the axis-aligned box from `mins[0..3]` to `maxs[0..3]`
 /// (world units; swapped corners span the same box) touches, each once, in tree order (Quake's
 /// efrags). Conservative: a box within 1/32 unit of a leaf counts as touching it. Buffer
-/// protocol as [`sl_visible_leaves`]: writes at most `capacity` leaves, and the full count.
+/// protocol as [`sl_visible_leaves`](crate::sl_visible_leaves): writes at most `capacity` leaves, and the
+/// full count.
 ///
 /// # Safety
 /// `world` must be a live world, `mins`/`maxs` 3 readable floats each, `out_leaves` writable for

@@ -22,7 +22,7 @@ pub const SL_ERR_BACKEND: SlStatus = 4;
 /// An internal panic was caught.
 pub const SL_ERR_PANIC: SlStatus = 5;
 
-/// Backend selectors for [`sl_visible_leaves`].
+/// Backend selectors for [`sl_visible_leaves`](crate::sl_visible_leaves).
 pub const SL_BACKEND_PVS: i32 = 0;
 /// The portal backend.
 pub const SL_BACKEND_PORTAL: i32 = 1;
@@ -30,7 +30,8 @@ pub const SL_BACKEND_PORTAL: i32 = 1;
 /// An index (leaf, cluster, face, texture, model) was out of range.
 pub const SL_ERR_RANGE: SlStatus = 6;
 
-/// Leaf contents codes of [`sl_leaf_contents`] (Quake's, as `Contents::code`): empty.
+/// Leaf contents codes of [`sl_leaf_contents`](crate::sl_leaf_contents) (Quake's, as `Contents::code`):
+/// empty.
 pub const SL_CONTENTS_EMPTY: i32 = -1;
 /// Solid, and every point outside the world.
 pub const SL_CONTENTS_SOLID: i32 = -2;

@@ -99,7 +99,7 @@ pub unsafe extern "C" fn sl_world_num_clusters(world: *const SlWorld) -> u32 {
 }
 
 /// Number of faces (0 for null); face indices are `0..count`, the indices of
-/// [`sl_cluster_faces`] and, for a `.bsp`, the BSP's own face indices.
+/// [`sl_cluster_faces`](crate::sl_cluster_faces) and, for a `.bsp`, the BSP's own face indices.
 ///
 /// # Safety
 /// `world` must be null or a live world.
