@@ -63,7 +63,12 @@ fn child(path: &str, fast: bool) {
     let file = prt::read(&text, path).expect("parse .prt");
     let cpu0 = cpu_seconds();
     let t = Instant::now();
-    let r = vis::run(&file, &VisOptions { threads: 2, fast, ..VisOptions::default() }, &|_| {}).expect("vis");
+    let r = vis::run(
+        &file,
+        &VisOptions { threads: 2, fast, ..VisOptions::default() },
+        &sightline_job::progress::NoProgress,
+    )
+    .expect("vis");
     let wall = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu0;
     let s = &r.stats;

@@ -45,8 +45,12 @@ fn main() {
         let run = |fast: bool| {
             let cpu0 = cpu_seconds();
             let t = Instant::now();
-            let r = vis::run(prt, &VisOptions { threads: 2, fast, ..VisOptions::default() }, &|_| {})
-                .expect("vis");
+            let r = vis::run(
+                prt,
+                &VisOptions { threads: 2, fast, ..VisOptions::default() },
+                &sightline_job::progress::NoProgress,
+            )
+            .expect("vis");
             (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0, r)
         };
         let (wall, cpu, full) = run(false);

@@ -112,8 +112,12 @@ fn main() {
             let peak_known = reset_peak();
             let cpu0 = cpu_seconds();
             let t = Instant::now();
-            let r =
-                vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).expect("vis");
+            let r = vis::run(
+                &prt,
+                &VisOptions { threads: 2, ..VisOptions::default() },
+                &sightline_job::progress::NoProgress,
+            )
+            .expect("vis");
             let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
             let peak = match (peak_known, status_kib("VmHWM:")) {
                 (true, Some(hwm)) => format!("{:.1}", hwm.saturating_sub(before) as f64 / 1024.0),

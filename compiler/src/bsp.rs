@@ -23,6 +23,7 @@
 use rayon::prelude::*;
 use sightline_formats::geom::ON_EPSILON;
 use sightline_formats::{Aabb, Contents, PlaneSet};
+use sightline_job::cancel::Cancel;
 
 use crate::brush::Brush;
 use crate::contents::priority;
@@ -194,9 +195,11 @@ enum Built {
     Leaf { contents: Contents, bounds: Aabb },
 }
 
-/// Build the tree of `brushes` inside `volume` (a box brush enclosing them all).
-pub fn build(planes: &PlaneSet, brushes: Vec<Brush>, volume: Brush) -> Tree {
-    let built = build_r(planes, brushes, volume);
+/// Build the tree of `brushes` inside `volume` (a box brush enclosing them all). Once `cancel` is
+/// cancelled every node not yet split becomes a leaf at once, so the call returns promptly with a
+/// tree that is not the map's: the caller must check `cancel` and discard it.
+pub fn build(planes: &PlaneSet, brushes: Vec<Brush>, volume: Brush, cancel: &Cancel) -> Tree {
+    let built = build_r(planes, brushes, volume, cancel);
     let mut tree = Tree::default();
     flatten(built, &mut tree.nodes);
     tree
@@ -219,7 +222,10 @@ fn flatten(b: Built, out: &mut Vec<TreeNode>) -> u32 {
     index
 }
 
-fn build_r(planes: &PlaneSet, mut brushes: Vec<Brush>, volume: Brush) -> Built {
+fn build_r(planes: &PlaneSet, mut brushes: Vec<Brush>, volume: Brush, cancel: &Cancel) -> Built {
+    if cancel.is_cancelled() {
+        return Built::Leaf { contents: Contents::Solid, bounds: volume.bounds };
+    }
     let corners: Vec<glam::DVec3> = volume.points().collect();
     prune(planes, &mut brushes, &corners);
     let bounds = volume.bounds;
@@ -239,7 +245,7 @@ fn build_r(planes: &PlaneSet, mut brushes: Vec<Brush>, volume: Brush) -> Built {
                 }
             }
         }
-        return build_r(planes, brushes, volume);
+        return build_r(planes, brushes, volume, cancel);
     };
     let mut front = Vec::with_capacity(brushes.len());
     let mut back = Vec::with_capacity(brushes.len());
@@ -264,9 +270,9 @@ fn build_r(planes: &PlaneSet, mut brushes: Vec<Brush>, volume: Brush) -> Built {
     }
     let big = front.len() + back.len() >= PARALLEL_MIN_BRUSHES;
     let (f, k) = if big {
-        rayon::join(|| build_r(planes, front, vf), || build_r(planes, back, vb))
+        rayon::join(|| build_r(planes, front, vf, cancel), || build_r(planes, back, vb, cancel))
     } else {
-        (build_r(planes, front, vf), build_r(planes, back, vb))
+        (build_r(planes, front, vf, cancel), build_r(planes, back, vb, cancel))
     };
     Built::Node { plane, children: Box::new([f, k]), bounds, detail }
 }
@@ -419,7 +425,7 @@ mod tests {
             &Aabb::new(DVec3::splat(-64.0), DVec3::splat(128.0)),
             Contents::Empty,
         );
-        let tree = build(&planes, vec![b], vol);
+        let tree = build(&planes, vec![b], vol, &Cancel::new());
         assert_eq!(tree.num_nodes(), 6);
         assert_eq!(tree.num_leaves(), 7);
         let solid = tree.locate(&planes, DVec3::splat(32.0));
@@ -462,7 +468,7 @@ mod proptests {
             }
             let world = Aabb::new(DVec3::splat(-16.0), DVec3::splat(160.0));
             let volume = Brush::from_box(&mut planes, &world, Contents::Empty);
-            let tree = build(&planes, brushes, volume);
+            let tree = build(&planes, brushes, volume, &Cancel::new());
             for x in 0..18 {
                 for y in 0..18 {
                     for z in 0..18 {

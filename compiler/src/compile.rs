@@ -4,7 +4,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 use sightline_formats::{Aabb, Contents};
-use sightline_job::progress::Progress;
+use sightline_job::cancel::Cancel;
+use sightline_job::progress::{Progress, phase};
 
 use crate::brush::Brush;
 use crate::error::CompileError;
@@ -12,44 +13,12 @@ use crate::options::CompileOptions;
 use crate::prepared::OUTSIDE_MARGIN;
 use crate::report::{Compiled, LeakReport, POINTFILE_STEP, PhaseTime};
 use crate::source::Source;
+use crate::vis::VisOptions;
 use crate::visdata::store_pvs;
 use crate::{bsp, emit, load, mesh, outside, portals, vis};
 
-/// Adapts vis progress reports (phase, done, total) to a [`Progress`].
-struct VisProgressBridge<'a> {
-    progress: &'a dyn Progress,
-    state: std::sync::Mutex<Option<(vis::VisPhase, usize)>>,
-}
-
-impl VisProgressBridge<'_> {
-    fn report(&self, p: vis::VisProgress) {
-        let Ok(mut state) = self.state.lock() else { return };
-        match *state {
-            Some((phase, done)) if phase == p.phase => {
-                // Reports from several threads may arrive out of order: only move forward.
-                if p.done > done {
-                    self.progress.advance((p.done - done) as u64);
-                    *state = Some((phase, p.done));
-                }
-            }
-            Some(_) | None => {
-                if state.is_some() {
-                    self.progress.end();
-                }
-                let name = match p.phase {
-                    vis::VisPhase::Coarsen => "vis clusters merged (--coarsen)",
-                    vis::VisPhase::Base => "vis base",
-                    vis::VisPhase::Flow => "vis flow",
-                };
-                self.progress.begin(name, p.total as u64);
-                self.progress.advance(p.done as u64);
-                *state = Some((p.phase, p.done));
-            }
-        }
-    }
-}
-
-/// Compile `source`.
+/// Compile `source`. `progress` gets one phase per step (`csg`, `bsp`, `portals`, `outside`,
+/// `emit`, then vis's); [`CompileOptions::cancel`] stops the compile at its next safe point.
 pub fn compile(
     source: &Source,
     opts: &CompileOptions,
@@ -78,11 +47,15 @@ impl Clock {
         Self { start: Instant::now(), phases: Vec::new() }
     }
 
-    fn lap(&mut self, name: &str, progress: &dyn Progress) {
+    /// Phase `name` is over: its time is kept, and the compile stops here when cancelled.
+    fn lap(&mut self, name: &'static str, cancel: &Cancel) -> Result<(), CompileError> {
         let now = Instant::now();
         self.phases.push(PhaseTime { name: name.to_string(), seconds: (now - self.start).as_secs_f64() });
         self.start = now;
-        progress.end();
+        if cancel.is_cancelled() {
+            return Err(CompileError::Cancelled { phase: name });
+        }
+        Ok(())
     }
 }
 
@@ -91,18 +64,19 @@ fn compile_here(
     opts: &CompileOptions,
     progress: &dyn Progress,
 ) -> Result<Compiled, CompileError> {
+    let cancel = &opts.cancel;
     let mut clock = Clock::new();
     // A mesh comes with its world tree prebuilt; a map builds its tree from brushes below.
     let (file, mut prep, mesh_tree) = match source {
-        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress)?, None),
+        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress, cancel)?, None),
         Source::Mesh { mesh, file } => {
             let (prep, tree) = mesh::prepare(mesh, file, progress)?;
             (file.as_str(), prep, Some(tree))
         }
     };
-    clock.lap("csg", progress);
+    clock.lap("csg", cancel)?;
 
-    progress.begin("bsp", 1 + prep.submodels.len() as u64);
+    let bsp_phase = phase(progress, "bsp", 1 + prep.submodels.len() as u64);
     let (mut tree, bounds, world_bounds, cover) = match mesh_tree {
         Some(m) => (m.tree, m.volume, m.world, Some(m.cover)),
         None => {
@@ -114,10 +88,10 @@ fn compile_here(
             let bounds = world.expanded(OUTSIDE_MARGIN);
             let volume = Brush::from_box(&mut prep.planes, &bounds, Contents::Empty);
             let brushes = std::mem::take(&mut prep.structural);
-            (bsp::build(&prep.planes, brushes, volume), bounds, world, None)
+            (bsp::build(&prep.planes, brushes, volume, cancel), bounds, world, None)
         }
     };
-    progress.advance(1);
+    bsp_phase.advance(1);
     let mut sub_inputs = Vec::with_capacity(prep.submodels.len());
     for (brushes, faces) in std::mem::take(&mut prep.submodels) {
         let mb = Aabb::from_points(brushes.iter().flat_map(|b| [b.bounds.mins, b.bounds.maxs]));
@@ -128,19 +102,23 @@ fn compile_here(
     let submodels: Vec<emit::Submodel> = sub_inputs
         .into_iter()
         .map(|(brushes, faces, bounds, volume)| {
-            let tree = bsp::build(&prep.planes, brushes, volume);
-            progress.advance(1);
+            let tree = bsp::build(&prep.planes, brushes, volume, cancel);
+            bsp_phase.advance(1);
             emit::Submodel { tree, faces, bounds }
         })
         .collect();
-    clock.lap("bsp", progress);
+    drop(bsp_phase);
+    clock.lap("bsp", cancel)?;
 
-    progress.begin("portals", 1);
-    let graph = portals::build(&tree, &prep.planes, &bounds);
-    progress.advance(1);
-    clock.lap("portals", progress);
+    let graph = {
+        let p = phase(progress, "portals", 1);
+        let graph = portals::build(&tree, &prep.planes, &bounds);
+        p.advance(1);
+        graph
+    };
+    clock.lap("portals", cancel)?;
 
-    progress.begin("outside", 1);
+    let outside_phase = phase(progress, "outside", 1);
     if let Some(cover) = &cover {
         let opened = cover.open_unenclosed(&mut tree, &prep.planes, &graph);
         if opened.cells > 0 {
@@ -154,7 +132,7 @@ fn compile_here(
         }
     }
     let fill = outside::flood(&tree, &prep.planes, &graph, &prep.seeds, prep.fill);
-    progress.advance(1);
+    outside_phase.advance(1);
     let mut leak = None;
     if let Some((seed, points)) = &fill.leak {
         let (classname, line) = load::entity_info(source, seed.entity);
@@ -175,9 +153,10 @@ fn compile_here(
             .warnings
             .push("no entity with an origin lies in open space: only the outside was filled".to_string());
     }
-    clock.lap("outside", progress);
+    drop(outside_phase);
+    clock.lap("outside", cancel)?;
 
-    progress.begin("emit", 1);
+    let emit_phase = phase(progress, "emit", 1);
     let collapsed = tree.has_detail().then(|| {
         let (ctree, origin) = tree.collapse_detail(&fill.contents);
         (portals::build(&ctree, &prep.planes, &bounds), origin)
@@ -191,8 +170,9 @@ fn compile_here(
         cluster_portals: collapsed.as_ref().map(|(g, o)| (g, o.as_slice())),
     };
     let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures, &prep.surfaces);
-    progress.advance(1);
-    clock.lap("emit", progress);
+    emit_phase.advance(1);
+    drop(emit_phase);
+    clock.lap("emit", cancel)?;
 
     let mut stats = prep.stats;
     let level = out.level;
@@ -207,8 +187,7 @@ fn compile_here(
     let mut level = level;
     let mut vis_stats = None;
     if let (Some(vis_opts), None) = (&opts.vis, &leak) {
-        let bridge = VisProgressBridge { progress, state: std::sync::Mutex::new(None) };
-        let mut vis_opts = vis_opts.clone();
+        let mut vis_opts = VisOptions { cancel: cancel.clone(), ..vis_opts.clone() };
         if let Some(t) = opts.threads {
             vis_opts.threads = t.max(1);
         }
@@ -216,7 +195,7 @@ fn compile_here(
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
         };
-        let result = vis::run(&out.prt, &vis_opts, &|p| bridge.report(p))?;
+        let result = vis::run(&out.prt, &vis_opts, progress)?;
         if result.num_clusters() != level.num_clusters as usize {
             return Err(CompileError::VisClusters {
                 got: result.num_clusters(),
@@ -225,7 +204,7 @@ fn compile_here(
         }
         store_pvs(&mut level, &result);
         vis_stats = Some(result.stats.clone());
-        clock.lap("vis", progress);
+        clock.lap("vis", cancel)?;
     }
     stats.phases = clock.phases;
     Ok(Compiled { level, prt: out.prt, stats, leak, vis: vis_stats })

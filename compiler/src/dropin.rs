@@ -27,10 +27,11 @@ use std::time::Instant;
 
 use sightline_formats::bsp::{BspError, Game};
 use sightline_job::atomic::{Durability, write_file_with};
+use sightline_job::progress::Progress;
 use thiserror::Error;
 
 use crate::bsp_portals::BspPortalOptions;
-use crate::vis::{VisError, VisOptions, VisProgress};
+use crate::vis::{VisError, VisOptions};
 use crate::visdata::VisdataError;
 
 pub use report::{PackReport, PackedMap, Q2Report, Q3Report, QuakeReport, Report, SkippedMap};
@@ -63,28 +64,6 @@ impl DropInOptions {
     /// The far plane distance when one is on.
     pub fn farplane(&self) -> Option<f64> {
         self.farplane.filter(|&d| d > 0.0)
-    }
-}
-
-/// What the run reports back while it works.
-#[derive(Clone, Copy)]
-pub struct Hooks<'a> {
-    /// Vis progress ([`crate::vis::run`]'s reports).
-    pub progress: &'a (dyn Fn(VisProgress) + Sync),
-    /// A warning about the input that does not stop the run (said when found).
-    pub warn: &'a dyn Fn(&str),
-}
-
-impl std::fmt::Debug for Hooks<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Hooks")
-    }
-}
-
-impl Hooks<'_> {
-    /// Hooks that report nothing.
-    pub fn silent() -> Hooks<'static> {
-        Hooks { progress: &|_| {}, warn: &|_| {} }
     }
 }
 
@@ -184,17 +163,19 @@ impl DropInError {
 
 /// Vis of the compiled map or portal file at `path` (see the module docs), written atomically;
 /// `started` is when the caller's work began (reports count from it, and the output is flushed to
-/// disk when the work took long enough to matter).
+/// disk when the work took long enough to matter). `progress` gets vis's phases and notes, and
+/// warnings about the input; [`VisOptions::cancel`] stops the run (with the state saved when
+/// there is a state file).
 pub fn run(
     path: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     started: Instant,
 ) -> Result<Report, DropInError> {
     match game_of(path) {
-        Some(Game::Quake3) => quake3::run(path, opts, hooks, started).map(Report::Quake3),
-        Some(Game::Quake2) => quake2::run(path, opts, hooks, started).map(Report::Quake2),
-        _ => quake::run(path, opts, hooks, started).map(Report::Quake),
+        Some(Game::Quake3) => quake3::run(path, opts, progress, started).map(Report::Quake3),
+        Some(Game::Quake2) => quake2::run(path, opts, progress, started).map(Report::Quake2),
+        _ => quake::run(path, opts, progress, started).map(Report::Quake),
     }
 }
 
@@ -226,7 +207,7 @@ pub(crate) fn write(path: &Path, bytes: &[u8], started: Instant) -> Result<(), D
 pub(crate) fn flow(
     prt: &sightline_formats::prt::PortalFile,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     path: &Path,
 ) -> Result<crate::vis::VisResult, DropInError> {
     if opts.restart
@@ -238,7 +219,7 @@ pub(crate) fn flow(
             Err(e) => return Err(DropInError::refused(state, format!("cannot delete it (--no-state): {e}"))),
         }
     }
-    crate::vis::run(prt, &opts.vis, hooks.progress).map_err(DropInError::vis_at(path))
+    crate::vis::run(prt, &opts.vis, progress).map_err(DropInError::vis_at(path))
 }
 
 /// Every cluster's row of `result` in Quake's byte layout, back to back (Quake 2 and 3 rows).

@@ -82,6 +82,13 @@ pub enum CompileError {
     /// same compile resumes from it).
     #[error("vis")]
     Vis(#[from] vis::VisError),
+    /// The compile was cancelled ([`crate::CompileOptions::cancel`]) during `phase`; nothing was
+    /// returned.
+    #[error("stopped during {phase}")]
+    Cancelled {
+        /// The phase that was running (`csg`, `bsp`, `portals`, `outside`, `emit`).
+        phase: &'static str,
+    },
     /// Vis returned rows for another number of clusters than the level has.
     #[error("vis returned {got} clusters for {want}")]
     VisClusters {

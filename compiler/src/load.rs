@@ -8,7 +8,8 @@ use sightline_formats::geom::WORLD_LIMIT;
 use sightline_formats::map::{Entity, MapFile};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::{Contents, PlaneSet};
-use sightline_job::progress::Progress;
+use sightline_job::cancel::Cancel;
+use sightline_job::progress::{Progress, phase};
 
 use crate::brush::{Brush, BrushProblem, MAX_BRUSH_SIDES, NO_TEXTURE, SideSpec};
 use crate::contents::{BrushKind, EntityRole, brush_kind, entity_role};
@@ -51,7 +52,12 @@ fn parse_origin(text: &str) -> Option<DVec3> {
     it.next().is_none().then_some(v)
 }
 
-pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Result<Prepared, CompileError> {
+pub(crate) fn load_map(
+    map: &MapFile,
+    file: &str,
+    progress: &dyn Progress,
+    cancel: &Cancel,
+) -> Result<Prepared, CompileError> {
     let Some(first) = map.entities.first() else {
         return Err(CompileError::NoEntities { file: file.to_string() });
     };
@@ -63,7 +69,7 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
         });
     }
     let total: usize = map.entities.iter().map(|e| e.brushes.len()).sum();
-    progress.begin("csg", total as u64);
+    let csg = phase(progress, "csg", total as u64);
 
     let mut planes = PlaneSet::new();
     let mut textures: Vec<String> = Vec::new();
@@ -112,7 +118,10 @@ pub(crate) fn load_map(map: &MapFile, file: &str, progress: &dyn Progress) -> Re
             entity_text(&mut entities, e, model);
         }
         for (bi, b) in e.brushes.iter().enumerate() {
-            progress.advance(1);
+            csg.advance(1);
+            if cancel.is_cancelled() {
+                return Err(CompileError::Cancelled { phase: "csg" });
+            }
             let bad = |problem: &str| CompileError::BadBrush {
                 file: file.to_string(),
                 line: b.line,

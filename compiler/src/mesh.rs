@@ -23,7 +23,7 @@
 use glam::DVec3;
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
 use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
-use sightline_job::progress::Progress;
+use sightline_job::progress::{Progress, phase};
 
 use crate::brush::Brush;
 use crate::bsp::{Tree, TreeNode};
@@ -70,7 +70,7 @@ pub(crate) fn prepare(
     file: &str,
     progress: &dyn Progress,
 ) -> Result<(Prepared, MeshTree), CompileError> {
-    progress.begin("csg", mesh.triangles.len() as u64);
+    let csg = phase(progress, "csg", mesh.triangles.len() as u64);
     let mut planes = PlaneSet::new();
     let mut polys = Vec::with_capacity(mesh.triangles.len());
     for t in &mesh.triangles {
@@ -89,7 +89,7 @@ pub(crate) fn prepare(
         }
         polys.push(Poly { plane: planes.insert(plane) as u32, winding });
     }
-    progress.advance(mesh.triangles.len() as u64);
+    csg.advance(mesh.triangles.len() as u64);
     let world = Aabb::from_points(polys.iter().flat_map(|p| p.winding.points.iter().copied()));
     if polys.is_empty() || world.is_empty() {
         return Err(CompileError::EmptyMesh { file: file.to_string(), triangles: mesh.triangles.len() });

@@ -1,5 +1,7 @@
 //! How to compile ([`CompileOptions`]).
 
+use sightline_job::cancel::Cancel;
+
 use crate::vis;
 
 /// Options of [`compile`](fn@crate::compile).
@@ -16,4 +18,8 @@ pub struct CompileOptions {
     /// this and [`vis::VisOptions::max_memory`] applies; the memory the machine has available is
     /// always a limit too).
     pub max_memory: Option<u64>,
+    /// Stops the compile at its next safe point once cancelled (between brushes, tree nodes and
+    /// phases, and at vis's next batch boundary) with [`CompileError::Cancelled`](crate::CompileError::Cancelled);
+    /// vis uses this token too, whatever [`vis::VisOptions::cancel`] holds.
+    pub cancel: Cancel,
 }

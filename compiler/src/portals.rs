@@ -249,7 +249,7 @@ mod tests {
         }
         let bounds = Aabb::new(DVec3::splat(-32.0), DVec3::splat(288.0));
         let vol = Brush::from_box(&mut planes, &bounds, Contents::Empty);
-        let tree = crate::bsp::build(&planes, walls, vol);
+        let tree = crate::bsp::build(&planes, walls, vol, &sightline_job::cancel::Cancel::new());
         let g = build(&tree, &planes, &bounds);
         let inside = tree.locate(&planes, DVec3::splat(128.0));
         // The room's only neighbours are solid walls.

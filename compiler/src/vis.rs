@@ -71,11 +71,11 @@ mod stats;
 mod symmetry;
 
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
+use sightline_job::progress::{Progress, phase};
 
 pub use base::COPLANAR_EPSILON;
 pub use budget::{
@@ -83,7 +83,7 @@ pub use budget::{
 };
 pub use error::VisError;
 pub use flow::MAX_FLOW_DEPTH;
-pub use options::{VisOptions, VisPhase, VisProgress};
+pub use options::VisOptions;
 pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 pub use rows::ROWS_SERIAL_WORDS;
 pub use stats::{VisResult, VisStats};
@@ -93,12 +93,10 @@ use error::panic_error;
 use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
 use schedule::flow_all;
 
-/// Compute the PVS of a portal file. `progress` is called (from worker threads) as portals finish.
-pub fn run(
-    prt: &PortalFile,
-    opts: &VisOptions,
-    progress: &(dyn Fn(VisProgress) + Sync),
-) -> Result<VisResult, VisError> {
+/// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
+/// per finished portal (from worker threads), and a note when clusters are merged to fit the
+/// limits; [`VisOptions::cancel`] stops the run at its next batch boundary.
+pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     if opts.level > 4 {
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
     }
@@ -116,8 +114,10 @@ pub fn run(
                 work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
             };
             let coarse = coarsen::fit(prt, &single, limits).ok_or(e)?;
-            let (done, total) = (coarse.stats.clusters_after as usize, coarse.stats.clusters_before as usize);
-            progress(VisProgress { phase: VisPhase::Coarsen, done, total });
+            progress.note(&format!(
+                "vis does not fit its memory or work limit: merging {} clusters into {} (--coarsen)",
+                coarse.stats.clusters_before, coarse.stats.clusters_after
+            ));
             Some(coarse)
         }
         Err(e) => return Err(e),
@@ -159,21 +159,15 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
 }
 
 /// The phases of a run, on the threads `opts.threads` says (see `parallel`).
-fn run_phases(
-    prt: &PortalFile,
-    opts: &VisOptions,
-    progress: &(dyn Fn(VisProgress) + Sync),
-) -> Result<VisResult, VisError> {
+fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     let t0 = Instant::now();
     let g = graph::Graph::new(prt);
     let n = g.portals.len();
     let words = bits::words(n);
-    let counter = AtomicUsize::new(0);
+    let base_phase = phase(progress, "vis base", n as u64);
     let base::Mightsee { rows: might, clusters: might_clusters } =
-        base::mightsee(&g, words, opts.threads, &|| {
-            let done = counter.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(VisProgress { phase: VisPhase::Base, done, total: n });
-        });
+        base::mightsee(&g, words, opts.threads, &|| base_phase.advance(1));
+    drop(base_phase);
     let row_threads = rows_threads(prt, words, opts.threads);
     // The PVS base vis alone gives: the result of `--fast`, and the base vis average otherwise.
     let (base_result, avg_mightsee) = if opts.fast {

@@ -553,7 +553,7 @@ mod tests {
             portals: vec![PrtPortal { leaves: [0, 1], winding: square }],
             leaf_clusters: vec![0, 0, 1],
         };
-        vis::run(&prt, &VisOptions::default(), &|_| {}).expect("vis")
+        vis::run(&prt, &VisOptions::default(), &sightline_job::progress::NoProgress).expect("vis")
     }
 
     #[test]
@@ -607,8 +607,12 @@ mod tests {
         let b = input.bsp.as_ref().expect("a .bsp");
         let side = b.texinfo_json.as_ref().expect("the side file is read");
         assert!(side.matches && side.flags.noambient == [4], "{side:?}");
-        let result =
-            vis::run(&input.prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {}).expect("vis");
+        let result = vis::run(
+            &input.prt,
+            &VisOptions { threads: 1, ..VisOptions::default() },
+            &sightline_job::progress::NoProgress,
+        )
+        .expect("vis");
 
         let ericw =
             bsp::read(&std::fs::read(src.with_extension("ericw.bsp")).expect("ericw output")).expect("bsp");

@@ -275,7 +275,11 @@ fn bsp_portal_rebuild_survives_hostile_trees() {
             // Vis on the first few rebuilt graphs: an answer or an error, never a panic.
             if vised < 4 {
                 vised += 1;
-                let _ = vis::run(&built.prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {});
+                let _ = vis::run(
+                    &built.prt,
+                    &VisOptions { threads: 1, ..VisOptions::default() },
+                    &sightline_job::progress::NoProgress,
+                );
             }
             true
         },

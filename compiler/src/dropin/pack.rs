@@ -15,7 +15,9 @@ use std::time::Instant;
 use sightline_formats::vispatch::{self, VisPatchRecord};
 
 use super::quake::{is_bsp, map_name, read_input, write_pack};
-use super::{DropInError, DropInOptions, Hooks, PackReport, PackedMap, SkippedMap};
+use sightline_job::progress::Progress;
+
+use super::{DropInError, DropInOptions, PackReport, PackedMap, SkippedMap};
 use crate::vis::{self, VisResult};
 use crate::visdata::{self, Rows};
 
@@ -26,7 +28,7 @@ pub fn run(
     dir: &Path,
     out: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
 ) -> Result<PackReport, DropInError> {
     let t0 = Instant::now();
     if opts.vis.state.is_some() {
@@ -49,7 +51,7 @@ pub fn run(
     };
     for file in &files {
         let t = Instant::now();
-        match pack_one(file, &opts, hooks, &records) {
+        match pack_one(file, &opts, progress, &records) {
             Ok((record, result)) => {
                 report.maps.push(PackedMap {
                     map: record.map_name.clone(),
@@ -92,7 +94,7 @@ fn chain(e: &dyn std::error::Error) -> String {
 fn pack_one(
     file: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     done: &[VisPatchRecord],
 ) -> Result<(VisPatchRecord, VisResult), DropInError> {
     let name = map_name(file)?;
@@ -107,7 +109,7 @@ fn pack_one(
     }
     let (input, _) = read_input(file, opts)?;
     let Some(b) = &input.bsp else { return Err(DropInError::refused(file, "not a .bsp")) };
-    let mut result = super::flow(&input.prt, opts, hooks, file)?;
+    let mut result = super::flow(&input.prt, opts, progress, file)?;
     if let Some(d) = opts.farplane() {
         vis::farplane::cull(&mut result, &visdata::cluster_boxes(&b.bsp, &input.prt), d)
             .map_err(DropInError::vis_at(file))?;

@@ -14,7 +14,9 @@ use sightline_formats::bsp::BspVersion;
 use sightline_formats::texture::Ambient;
 use sightline_formats::vispatch::{self, VisPatchRecord};
 
-use super::{DropInError, DropInOptions, Hooks, QuakeReport};
+use sightline_job::progress::Progress;
+
+use super::{DropInError, DropInOptions, QuakeReport};
 use crate::bsp_portals::BspPortalStats;
 use crate::vis;
 use crate::visdata::{self, Rows, VisInput};
@@ -23,7 +25,7 @@ use crate::visdata::{self, Rows, VisInput};
 pub fn run(
     path: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     t0: Instant,
 ) -> Result<QuakeReport, DropInError> {
     if opts.phs_only {
@@ -40,7 +42,7 @@ pub fn run(
     let ambient = input.ambient_options(opts.ambient_off);
     let texinfo_side = input.bsp.as_ref().and_then(|b| b.texinfo_json.as_ref());
     if let Some(side) = texinfo_side.filter(|s| !s.matches) {
-        (hooks.warn)(&format!(
+        progress.warn(&format!(
             "{} names texinfo {} but the BSP has {}: it belongs to another compile, its flags are ignored",
             side.path.display(),
             side.flags.max_texinfo.unwrap_or(0),
@@ -48,7 +50,7 @@ pub fn run(
         ));
     }
     let read_seconds = t0.elapsed().as_secs_f64();
-    let mut result = super::flow(&input.prt, opts, hooks, path)?;
+    let mut result = super::flow(&input.prt, opts, progress, path)?;
     let mut farplane_hidden_pairs = 0;
     if let (Some(d), Some(b)) = (farplane, &input.bsp) {
         let boxes = visdata::cluster_boxes(&b.bsp, &input.prt);

@@ -12,14 +12,16 @@ use sightline_formats::bits;
 use sightline_formats::bsp::{CompiledMap, Parsed, q2};
 use sightline_formats::prt::{self, PrtFormat};
 
-use super::{DropInError, DropInOptions, Hooks, Q2Report};
+use sightline_job::progress::Progress;
+
+use super::{DropInError, DropInOptions, Q2Report};
 use crate::{phs, vis, visdata};
 
 /// Runs the drop-in vis on the Quake 2 `.bsp` at `path`.
 pub fn run(
     path: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     t0: Instant,
 ) -> Result<Q2Report, DropInError> {
     refuse_quake1_options(path, opts)?;
@@ -73,7 +75,7 @@ pub fn run(
                 ),
             ));
         }
-        let mut result = super::flow(&prt, opts, hooks, path)?;
+        let mut result = super::flow(&prt, opts, progress, path)?;
         let mut farplane_hidden_pairs = None;
         if let Some(d) = farplane {
             let level = q2::to_level(bytes, file).map_err(DropInError::bsp(path))?;

@@ -12,13 +12,15 @@ use std::time::Instant;
 use sightline_formats::bsp::{CompiledMap, q3};
 use sightline_formats::prt::{self, PrtFormat};
 
-use super::{DropInError, DropInOptions, Hooks, Q3Report};
+use sightline_job::progress::Progress;
+
+use super::{DropInError, DropInOptions, Q3Report};
 
 /// Runs the drop-in vis on the Quake 3 `.bsp` at `path`.
 pub fn run(
     path: &Path,
     opts: &DropInOptions,
-    hooks: Hooks<'_>,
+    progress: &dyn Progress,
     t0: Instant,
 ) -> Result<Q3Report, DropInError> {
     super::quake2::refuse_quake1_options(path, opts)?;
@@ -56,7 +58,7 @@ pub fn run(
             ),
         ));
     }
-    let result = super::flow(&portals, opts, hooks, path)?;
+    let result = super::flow(&portals, opts, progress, path)?;
     let rows = super::cluster_rows(&result, clusters);
     let lump = q3::vis_lump(clusters, &rows).map_err(DropInError::bsp(path))?;
     let out = q3::write_with_visibility(map.bytes(), &lump).map_err(DropInError::bsp(path))?;

@@ -98,8 +98,12 @@ mod tests {
             })
             .collect();
         let prt = PortalFile::prt1(n, portals);
-        let result =
-            vis::run(&prt, &VisOptions { threads: 1, ..VisOptions::default() }, &|_| {}).expect("vis");
+        let result = vis::run(
+            &prt,
+            &VisOptions { threads: 1, ..VisOptions::default() },
+            &sightline_job::progress::NoProgress,
+        )
+        .expect("vis");
         let boxes = (0..n)
             .map(|i| {
                 let x = 64.0 * f64::from(i);

@@ -1,9 +1,11 @@
-//! What a run is asked to do ([`VisOptions`]) and what it reports as it goes ([`VisProgress`]).
+//! What a run is asked to do ([`VisOptions`]). A run reports as it goes through
+//! [`sightline_job::progress::Progress`]: phases `vis base` and `vis flow`, a step per portal, and
+//! a note when clusters are merged to fit the limits.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
+
+use sightline_job::cancel::Cancel;
 
 /// Options of [`run`](super::run).
 #[derive(Debug, Clone)]
@@ -28,9 +30,9 @@ pub struct VisOptions {
     /// Stop (with [`VisError::Interrupted`](super::VisError::Interrupted), after a checkpoint) once at least this many flow
     /// portals are finished: for tests of resuming.
     pub stop_after: Option<usize>,
-    /// Stop the same way at the next batch boundary once this flag is set (for example by a
-    /// Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
-    pub cancel: Option<Arc<AtomicBool>>,
+    /// Stop the same way at the next batch boundary once this token is cancelled (for example
+    /// by a Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
+    pub cancel: Cancel,
     /// Refuse (with [`VisError::Memory`](super::VisError::Memory)) a run whose [`memory_estimate`](super::memory_estimate) is above this many
     /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
     /// limit too.
@@ -56,7 +58,7 @@ impl Default for VisOptions {
             state: None,
             checkpoint_interval: Duration::from_secs(180),
             stop_after: None,
-            cancel: None,
+            cancel: Cancel::new(),
             max_memory: None,
             max_work: None,
             coarsen: false,
@@ -64,28 +66,4 @@ impl Default for VisOptions {
             panic_at: None,
         }
     }
-}
-
-/// Which phase a progress report is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum VisPhase {
-    /// Clusters were merged ([`VisOptions::coarsen`]): reported once, before base vis, with
-    /// `done` the merged clusters and `total` the input's.
-    Coarsen,
-    /// Base vis (`mightsee`).
-    Base,
-    /// Full flow.
-    Flow,
-}
-
-/// A progress report: `done` of `total` portals finished in `phase` (clusters for
-/// [`VisPhase::Coarsen`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct VisProgress {
-    /// The phase.
-    pub phase: VisPhase,
-    /// Portals finished (counting resumed ones).
-    pub done: usize,
-    /// Portals in the phase.
-    pub total: usize,
 }

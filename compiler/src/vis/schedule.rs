@@ -7,12 +7,13 @@ use std::time::{Duration, Instant};
 
 use sightline_formats::bits;
 use sightline_formats::prt::PortalFile;
+use sightline_job::progress::{Phase, Progress, phase};
 
 use std::panic::AssertUnwindSafe;
 
 use super::budget::flow_batch;
 use super::error::{VisError, panic_error};
-use super::options::{VisOptions, VisPhase, VisProgress};
+use super::options::VisOptions;
 use super::stats::VisStats;
 use super::{flow, graph, parallel, seeds, state, symmetry};
 
@@ -31,7 +32,7 @@ pub(super) fn flow_all(
     might: Vec<u64>,
     words: usize,
     opts: &VisOptions,
-    progress: &(dyn Fn(VisProgress) + Sync),
+    progress: &dyn Progress,
     stats: &mut VisStats,
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
@@ -70,7 +71,9 @@ pub(super) fn flow_all(
             None => state::State::new(want.input_hash, n, words, nc),
         });
     }
-    let run = Run { g, order: &order, words, n, batch, opts, progress };
+    let flow_phase = phase(progress, "vis flow", n as u64);
+    flow_phase.advance(done as u64);
+    let run = Run { g, order: &order, words, n, batch, opts, progress: &flow_phase };
     let test = run.batches(Rows { test, seeds, quiet }, done, log, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
@@ -98,7 +101,7 @@ struct Run<'a> {
     /// Portals per batch ([`flow_batch`]).
     batch: usize,
     opts: &'a VisOptions,
-    progress: &'a (dyn Fn(VisProgress) + Sync),
+    progress: &'a Phase<'a>,
 }
 
 /// The batch in flight and what its last finisher needs.
@@ -302,11 +305,7 @@ impl Run<'_> {
                 (slot.chains, slot.dropped) = (f.chains, f.dropped());
             }
             let finished = cursor.finished.fetch_add(1, Ordering::AcqRel) + 1;
-            (self.progress)(VisProgress {
-                phase: VisPhase::Flow,
-                done: batch_start + finished,
-                total: self.n,
-            });
+            self.progress.advance(1);
             if finished == batch_end - batch_start {
                 rows = None;
                 self.close_batch(batch_start, batch_end, test, slots, cursor, boundary);
@@ -348,7 +347,7 @@ impl Run<'_> {
             }
         }
         let done = batch_end;
-        let cancelled = self.opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+        let cancelled = self.opts.cancel.is_cancelled();
         let stop = (self.opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
         if let (Some(path), Some(log)) = (&self.opts.state, &b.log)
             && (stop || (done < n && b.last_save.elapsed() >= self.opts.checkpoint_interval))

@@ -8,6 +8,7 @@ use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 
 use super::schedule::input_hash;
 use super::*;
+use sightline_job::progress::NoProgress;
 
 /// A square portal on the plane `x = x0` spanning `y, z` in `[y0, y0 + s]`, facing into `into`
 /// (its winding plane faces -X when `into` is the lower-x leaf).
@@ -40,8 +41,27 @@ fn corridor(offsets: &[f64], widths: &[f64]) -> PortalFile {
     PortalFile::prt1(n, portals)
 }
 
-fn none() -> impl Fn(VisProgress) + Sync {
-    |_| {}
+fn none() -> NoProgress {
+    NoProgress
+}
+
+/// Panics at the tenth finished flow: a caller's progress receiver that fails.
+struct PanicsInFlow {
+    flow: std::sync::atomic::AtomicBool,
+    steps: std::sync::atomic::AtomicUsize,
+}
+
+impl Progress for PanicsInFlow {
+    fn begin(&self, phase: &str, _: u64) {
+        self.flow.store(phase == "vis flow", std::sync::atomic::Ordering::Relaxed);
+    }
+    fn advance(&self, n: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        if self.flow.load(Relaxed) && self.steps.fetch_add(n as usize, Relaxed) + n as usize >= 10 {
+            panic!("progress");
+        }
+    }
+    fn end(&self) {}
 }
 
 #[test]
@@ -350,11 +370,7 @@ fn a_panicking_worker_ends_the_run_with_an_error_not_a_hang() {
     }
     // A panic outside the flow (here the caller's progress callback) ends it the same way.
     let r = within_a_minute(move || {
-        let progress = |p: VisProgress| {
-            if p.phase == VisPhase::Flow && p.done == 10 {
-                panic!("progress");
-            }
-        };
+        let progress = PanicsInFlow { flow: Default::default(), steps: Default::default() };
         run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &progress)
     });
     assert!(matches!(r, Err(VisError::Panicked(_))), "{r:?}");

@@ -41,7 +41,7 @@ fn vised_copy(bsp: &Path, prt: &Path, name: &str) -> (PathBuf, PathBuf) {
     sightline_compiler::dropin::run(
         &ours,
         &opts,
-        sightline_compiler::dropin::Hooks::silent(),
+        &sightline_job::progress::NoProgress,
         std::time::Instant::now(),
     )
     .expect("vis");

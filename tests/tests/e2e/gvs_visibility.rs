@@ -160,7 +160,7 @@ fn results_are_deterministic_across_thread_counts() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
         pool.install(|| {
             let index = SceneIndex::build(&scene.triangles);
-            gvs::run_cells(&index, &cells, p, &|| {})
+            gvs::run_cells(&index, &cells, p, &gvs::NoProgress, &gvs::Cancel::new()).expect("not cancelled")
         })
     };
     let a: Vec<Vec<u32>> = run(1).iter().map(|p| p.entries.iter().map(|e| e.tri).collect()).collect();

@@ -4,6 +4,7 @@
 mod brace_scan;
 mod bsp_roundtrip;
 mod bundled_expectations;
+mod cancel;
 mod compile_cli;
 mod compile_maps;
 mod family_runtime;

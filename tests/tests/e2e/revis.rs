@@ -14,7 +14,8 @@ use sightline_formats::prt;
 use sightline_formats::vispatch::{self, VisPatchRecord};
 
 fn run(prt: &prt::PortalFile, threads: usize) -> VisResult {
-    vis::run(prt, &VisOptions { threads, ..VisOptions::default() }, &|_| {}).expect("vis runs")
+    vis::run(prt, &VisOptions { threads, ..VisOptions::default() }, &sightline_job::progress::NoProgress)
+        .expect("vis runs")
 }
 
 /// Visible (leaf, leaf) pairs of a result, and every leaf's row back to back.

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::dropin::{self, DropInOptions};
 use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::{self, Bsp, BspVersion};
 use sightline_formats::prt;
@@ -40,7 +40,7 @@ fn copy_in(dir: &Path, base: &str, prt: &str) -> Option<PathBuf> {
 fn vis(bsp: &Path, threads: usize) -> anyhow::Result<()> {
     let opts =
         DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
-    dropin::run(bsp, &opts, Hooks::silent(), Instant::now())?;
+    dropin::run(bsp, &opts, &NoProgress, Instant::now())?;
     Ok(())
 }
 

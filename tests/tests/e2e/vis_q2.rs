@@ -6,9 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::dropin::{self, DropInOptions};
 use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::q2::{self, Q2Bsp, Q2Row};
+use sightline_job::progress::NoProgress;
 
 fn q2_map(name: &str) -> Option<PathBuf> {
     sightline_tests::shared_map(&format!("q2/{name}"))
@@ -28,7 +29,7 @@ fn vis(input: &Path, phs_only: bool) {
         phs_only,
         ..DropInOptions::default()
     };
-    dropin::run(input, &opts, Hooks::silent(), Instant::now())
+    dropin::run(input, &opts, &NoProgress, Instant::now())
         .unwrap_or_else(|e| panic!("{}: {e}", input.display()));
 }
 

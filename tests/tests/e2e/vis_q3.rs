@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use sightline_compiler::dropin::{self, DropInOptions, Hooks};
+use sightline_compiler::dropin::{self, DropInOptions};
 use sightline_compiler::vis::VisOptions;
 use sightline_formats::bsp::q3;
 use sightline_formats::prt;
@@ -31,7 +31,7 @@ fn copy_in(map: &str, tag: &str) -> Option<PathBuf> {
 fn vis(bsp: &Path, threads: usize) -> Vec<u8> {
     let opts =
         DropInOptions { vis: VisOptions { threads, ..VisOptions::default() }, ..DropInOptions::default() };
-    dropin::run(bsp, &opts, Hooks::silent(), Instant::now()).expect("vis");
+    dropin::run(bsp, &opts, &NoProgress, Instant::now()).expect("vis");
     std::fs::read(bsp).expect("read back")
 }
 

@@ -4,17 +4,18 @@
 //! reference's, and ray sampling finds no visible pair it misses.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use glam::DVec3;
 use sightline_job::rng::SplitMix64;
 
-use sightline_compiler::dropin::{self, DropInOptions, Hooks};
-use sightline_compiler::vis::{self, VisError, VisOptions, VisPhase, VisProgress, VisResult};
+use sightline_compiler::dropin::{self, DropInOptions};
+use sightline_compiler::vis::{self, VisError, VisOptions, VisResult};
 use sightline_formats::bsp::{self, lump};
 use sightline_formats::prt::{self, PortalFile};
+use sightline_job::cancel::Cancel;
+use sightline_job::progress::Progress;
 use sightline_validate::pvs::level_pvs;
 use sightline_validate::{NoProgress, Options, OracleChoice, load, validate};
 
@@ -22,7 +23,7 @@ use sightline_validate::{NoProgress, Options, OracleChoice, load, validate};
 /// back into it.
 fn drop_in(path: &Path, vis: VisOptions) {
     let opts = DropInOptions { vis, ..DropInOptions::default() };
-    dropin::run(path, &opts, Hooks::silent(), Instant::now())
+    dropin::run(path, &opts, &NoProgress, Instant::now())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
 }
 
@@ -61,7 +62,8 @@ fn same_pvs_for_1_2_and_8_threads() {
             .iter()
             .map(|&threads| {
                 leaf_rows(
-                    &vis::run(&prt, &VisOptions { threads, fast, ..VisOptions::default() }, &|_| {}).unwrap(),
+                    &vis::run(&prt, &VisOptions { threads, fast, ..VisOptions::default() }, &NoProgress)
+                        .unwrap(),
                 )
             })
             .collect();
@@ -82,7 +84,8 @@ fn certified_seeds_save_work_and_keep_every_pair() {
     // visit fewer chains.
     for name in ["dm1.prt", "lq_e0m1.prt", "e1m1.prt"] {
         let Some(prt) = portal_file(name) else { return };
-        let run = |seeds| vis::run(&prt, &VisOptions { threads: 2, seeds, ..VisOptions::default() }, &|_| {});
+        let run =
+            |seeds| vis::run(&prt, &VisOptions { threads: 2, seeds, ..VisOptions::default() }, &NoProgress);
         let (with, without) = (run(true).unwrap(), run(false).unwrap());
         assert!(with.stats.chains < without.stats.chains, "{name}: seeds saved no work");
         let (rw, ro) = (leaf_rows(&with), leaf_rows(&without));
@@ -98,10 +101,10 @@ fn resumed_run_equals_uninterrupted_run() {
     let Some(prt) = portal_file("dm1.prt") else { return };
     let dir = temp_dir("resume");
     let state = dir.join("dm1.state");
-    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
+    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &NoProgress).unwrap();
     let opts =
         VisOptions { threads: 2, state: Some(state.clone()), stop_after: Some(700), ..VisOptions::default() };
-    match vis::run(&prt, &opts, &|_| {}) {
+    match vis::run(&prt, &opts, &NoProgress) {
         Err(VisError::Interrupted { done, total }) => assert!(done >= 700 && done < total),
         other => panic!("expected an interruption, got {other:?}"),
     }
@@ -110,10 +113,10 @@ fn resumed_run_equals_uninterrupted_run() {
     let mut other = prt.clone();
     other.portals.pop();
     assert!(matches!(
-        vis::run(&other, &VisOptions { stop_after: None, ..opts.clone() }, &|_| {}),
+        vis::run(&other, &VisOptions { stop_after: None, ..opts.clone() }, &NoProgress),
         Err(VisError::State(_))
     ));
-    let resumed = vis::run(&prt, &VisOptions { stop_after: None, ..opts }, &|_| {}).unwrap();
+    let resumed = vis::run(&prt, &VisOptions { stop_after: None, ..opts }, &NoProgress).unwrap();
     assert!(resumed.stats.resumed_portals >= 700);
     assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
     assert_eq!(resumed.stats.chains, whole.stats.chains, "work is counted across the resume");
@@ -126,19 +129,35 @@ fn cancelled_run_saves_its_state_and_resumes_to_the_same_pvs() {
     let Some(prt) = portal_file("dm1.prt") else { return };
     let dir = temp_dir("cancel");
     let state = dir.join("dm1.state");
-    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
-    let flag = Arc::new(AtomicBool::new(false));
+    let whole = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &NoProgress).unwrap();
+    let cancel = Cancel::new();
     let opts = VisOptions {
         threads: 2,
         state: Some(state.clone()),
-        cancel: Some(flag.clone()),
+        cancel: cancel.clone(),
         ..VisOptions::default()
     };
-    let on_progress = |p: VisProgress| {
-        if p.phase == VisPhase::Flow && p.done >= 500 {
-            flag.store(true, Ordering::Relaxed);
+    /// Cancels once 500 flows are done, as a Ctrl-C handler would.
+    struct CancelAt500 {
+        cancel: Cancel,
+        flow: AtomicBool,
+        done: AtomicUsize,
+    }
+    impl Progress for CancelAt500 {
+        fn begin(&self, phase: &str, _: u64) {
+            self.flow.store(phase == "vis flow", Ordering::Relaxed);
         }
-    };
+        fn advance(&self, n: u64) {
+            let done = self.done.fetch_add(n as usize, Ordering::Relaxed) + n as usize;
+            if self.flow.load(Ordering::Relaxed) && done >= 500 {
+                self.cancel.cancel();
+            }
+        }
+        fn end(&self) {
+            self.done.store(0, Ordering::Relaxed);
+        }
+    }
+    let on_progress = CancelAt500 { cancel, flow: AtomicBool::new(false), done: AtomicUsize::new(0) };
     match vis::run(&prt, &opts, &on_progress) {
         Err(VisError::Interrupted { done, total }) => {
             assert!(done >= 500 && done < total, "{done} of {total}")
@@ -146,7 +165,7 @@ fn cancelled_run_saves_its_state_and_resumes_to_the_same_pvs() {
         other => panic!("expected an interruption, got {other:?}"),
     }
     assert!(state.is_file());
-    let resumed = vis::run(&prt, &VisOptions { cancel: None, ..opts }, &|_| {}).unwrap();
+    let resumed = vis::run(&prt, &VisOptions { cancel: Cancel::new(), ..opts }, &NoProgress).unwrap();
     assert!(resumed.stats.resumed_portals >= 500);
     assert_eq!(leaf_rows(&resumed), leaf_rows(&whole));
     assert!(!state.exists(), "a finished run removes its state");
@@ -177,7 +196,7 @@ fn pvs_is_no_looser_than_the_reference_on_every_shared_map() {
         else {
             continue;
         };
-        let ours = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &|_| {}).unwrap();
+        let ours = vis::run(&prt, &VisOptions { threads: 2, ..VisOptions::default() }, &NoProgress).unwrap();
         let theirs = bsp_pairs(&reference);
         let mine = ours.stats.visible_pairs;
         eprintln!(
@@ -214,8 +233,8 @@ fn vis_survives_bent_and_broken_windings() {
             };
         }
         let opts = |threads| VisOptions { threads, ..VisOptions::default() };
-        let one = vis::run(&bad, &opts(1), &|_| {});
-        let two = vis::run(&bad, &opts(2), &|_| {});
+        let one = vis::run(&bad, &opts(1), &NoProgress);
+        let two = vis::run(&bad, &opts(2), &NoProgress);
         match (one, two) {
             (Ok(a), Ok(b)) => assert_eq!(leaf_rows(&a), leaf_rows(&b), "round {round}: thread counts differ"),
             (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
@@ -254,7 +273,7 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
 
     // Rows decode to the PVS vis computes (leaf j + 1 owns row j).
     let prt = prt::read(&std::fs::read_to_string(&prt_path).unwrap(), "dm1.prt").unwrap();
-    let ours = vis::run(&prt, &VisOptions::default(), &|_| {}).unwrap();
+    let ours = vis::run(&prt, &VisOptions::default(), &NoProgress).unwrap();
     let mut row = Vec::new();
     for j in 0..ours.num_leaves() {
         ours.leaf_row_bytes(j, &mut row);

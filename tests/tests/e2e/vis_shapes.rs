@@ -9,8 +9,8 @@ use sightline_tests::shapes::{corridor_prt, pillar_room, tiny_brushes_room};
 use sightline_validate::pvs::level_pvs;
 use sightline_validate::{Options, OracleChoice, validate};
 
-fn none() -> impl Fn(vis::VisProgress) + Sync {
-    |_| {}
+fn none() -> sightline_job::progress::NoProgress {
+    sightline_job::progress::NoProgress
 }
 
 #[test]

@@ -38,6 +38,8 @@ pub(crate) mod twins;
 mod union_find;
 pub mod update;
 
+pub use sightline_job::cancel::{Cancel, Cancelled};
+use sightline_job::progress;
 pub use sightline_job::progress::{NoProgress, Progress};
 
 use glam::Vec3;
@@ -179,11 +181,10 @@ pub fn run_variant(
     variant: Variant,
     base: Params,
     progress: &dyn Progress,
-) -> Vec<Pvs> {
-    progress.begin(variant.name(), cells.len() as u64);
-    let pvs = run_cells(index, cells, variant.params(base), &|| progress.advance(1));
-    progress.end();
-    pvs
+    cancel: &Cancel,
+) -> Result<Vec<Pvs>, Cancelled> {
+    let _phase = progress::phase(progress, variant.name(), cells.len() as u64);
+    run_cells(index, cells, variant.params(base), progress, cancel)
 }
 
 /// All rays of the cells' runs over `seconds` (`None` when the time is unknown or not positive).
@@ -192,21 +193,25 @@ pub fn rays_per_second(pvs: &[Pvs], seconds: Option<f64>) -> Option<f64> {
     seconds.filter(|&c| c > 0.0).map(|c| rays as f64 / c)
 }
 
-/// Run GVS on every cell, in parallel over cells; `progress` is called once per finished cell.
+/// Run GVS on every cell, in parallel over cells: `progress` advances a step per finished cell
+/// (in the caller's phase); once `cancel` is cancelled the cells not started are skipped and the
+/// run returns [`Cancelled`].
 pub fn run_cells(
     index: &SceneIndex,
     cells: &[Cell],
     params: Params,
-    progress: &(dyn Fn() + Sync),
-) -> Vec<Pvs> {
+    progress: &dyn Progress,
+    cancel: &Cancel,
+) -> Result<Vec<Pvs>, Cancelled> {
     cells
         .par_iter()
         .enumerate()
         .map(|(i, &cell)| {
+            cancel.check()?;
             let p = Params { seed: params.seed.wrapping_add(i as u64 * 7919), ..params };
             let pvs = sampler::run(index, cell, p);
-            progress();
-            pvs
+            progress.advance(1);
+            Ok(pvs)
         })
         .collect()
 }

@@ -10,6 +10,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use sightline_job::cancel::{Cancel, Cancelled};
+use sightline_job::progress::phase;
+
 use crate::error::{self, ErrorStats, IdBuffer, View};
 use crate::geom::Cell;
 use crate::sampler::Pvs;
@@ -113,26 +116,28 @@ impl<'a> Metric<'a> {
     /// at most the budget's pixels (at least one buffer), compared with every row and dropped, so
     /// memory does not grow with the number of views. Only the casting is timed.
     ///
-    /// `progress` gets a phase `"error"` with a step per measured cell. `on_view`, when given, is
-    /// called with every view whose cell has a PVS in the first row, in order.
+    /// `progress` gets a phase `"error"` with a step per measured cell; `cancel` stops the
+    /// measure between batches of views. `on_view`, when given, is called with every view whose
+    /// cell has a PVS in the first row, in order.
     pub fn measure(
         &mut self,
         cells: &[Cell],
         seed: u64,
         rows: &[&[Pvs]],
-        progress: &dyn Progress,
+        job: (&dyn Progress, &Cancel),
         mut on_view: Option<&mut dyn FnMut(MeasuredView<'_>)>,
-    ) -> Vec<[ErrorStats; 2]> {
+    ) -> Result<Vec<[ErrorStats; 2]>, Cancelled> {
+        let (progress, cancel) = job;
         let ViewOptions { views, res, fov } = self.options;
         let mut stats = vec![[ErrorStats::default(); 2]; rows.len()];
         if views == 0 || res == 0 {
-            return stats;
+            return Ok(stats);
         }
         let (tris, comps) = (self.index.tris, &self.index.components);
         let n = tris.len();
         let batch = (self.budget / (res * res)).max(1);
         let cpu_now = || self.cpu_clock.and_then(|c| c());
-        progress.begin("error", self.measured.len() as u64);
+        let phase = phase(progress, "error", self.measured.len() as u64);
         for &i in self.measured {
             let Some(cell) = cells.get(i) else {
                 continue;
@@ -151,6 +156,7 @@ impl<'a> Metric<'a> {
                 .collect();
             let views = error::views(cell, views, seed.wrapping_add(i as u64));
             for (b, chunk) in views.chunks(batch).enumerate() {
+                cancel.check()?;
                 let (t0, cpu0) = (Instant::now(), cpu_now());
                 let buffers: Vec<IdBuffer> = chunk
                     .iter()
@@ -185,17 +191,16 @@ impl<'a> Metric<'a> {
                     }
                 }
             }
-            progress.advance(1);
+            phase.advance(1);
         }
-        progress.end();
-        stats
+        Ok(stats)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{NoProgress, Params, Variant, run_cells, scenegen};
+    use crate::{Cancel, NoProgress, Params, Variant, run_cells, scenegen};
 
     #[test]
     fn the_error_metric_is_the_same_cast_one_buffer_at_a_time_or_all_at_once() {
@@ -206,15 +211,21 @@ mod tests {
         let cells = &cells[..];
         let options = ViewOptions { views: 3, res: 64, fov: 60.0 };
         let pvs: Vec<Vec<Pvs>> = [Variant::EdgePoint, Variant::ProbeFirstTarget]
-            .map(|v| run_cells(&index, cells, v.params(Params::default()), &|| {}))
+            .map(|v| {
+                run_cells(&index, cells, v.params(Params::default()), &NoProgress, &Cancel::new())
+                    .expect("not cancelled")
+            })
             .into();
         let rows: Vec<&[Pvs]> = pvs.iter().map(Vec::as_slice).collect();
         let measured = [0, 1];
         // One buffer per batch, and every buffer in one batch.
         let mut one = Metric::new(&index, &twins, options, &measured, 1);
         let mut all = Metric::new(&index, &twins, options, &measured, usize::MAX);
-        let got = one.measure(cells, 5, &rows, &NoProgress, None);
-        assert_eq!(got, all.measure(cells, 5, &rows, &NoProgress, None));
+        let got = one.measure(cells, 5, &rows, (&NoProgress, &Cancel::new()), None).expect("not cancelled");
+        assert_eq!(
+            got,
+            all.measure(cells, 5, &rows, (&NoProgress, &Cancel::new()), None).expect("not cancelled")
+        );
         assert_eq!((one.rays(), all.rays()), (2 * 3 * 64 * 64, 2 * 3 * 64 * 64));
         // The edge-point walk alone leaves wrong pixels here, so the comparison counts something.
         assert!(got[0][0].get().is_some_and(|(mean, _)| mean > 0.0), "{got:?}");
@@ -239,7 +250,14 @@ mod tests {
         let index = SceneIndex::build(&scene.triangles);
         let twins = Twins::build(&scene.triangles, &index.bvh);
         let cells: Vec<Cell> = scene.cells[..2].iter().map(|&(lo, hi)| Cell::new(lo, hi)).collect();
-        let pvs = run_cells(&index, &cells, Variant::EdgePoint.params(Params::default()), &|| {});
+        let pvs = run_cells(
+            &index,
+            &cells,
+            Variant::EdgePoint.params(Params::default()),
+            &NoProgress,
+            &Cancel::new(),
+        )
+        .expect("not cancelled");
         let options = ViewOptions { views: 3, res: 16, fov: 60.0 };
         let measured = [1, 0];
         // Two buffers per batch: the view index runs on across batches.
@@ -250,7 +268,9 @@ mod tests {
             assert_eq!(m.first_pvs, pvs[m.cell].bitset(scene.triangles.len()));
             seen.push((m.cell, m.view_index));
         };
-        metric.measure(&cells, 1, &[&pvs], &NoProgress, Some(&mut record));
+        metric
+            .measure(&cells, 1, &[&pvs], (&NoProgress, &Cancel::new()), Some(&mut record))
+            .expect("not cancelled");
         assert_eq!(seen, [(1, 0), (1, 1), (1, 2), (0, 0), (0, 1), (0, 2)]);
         assert_eq!(metric.cpu_seconds(), None);
     }

@@ -1,7 +1,9 @@
-//! How long-running library work (compiling, validating, GVS baking) reports progress: a phase
-//! with a number of steps, steps done (possibly from several worker threads), the phase's end.
-//! Libraries call it; the `sightline` binary draws progress bars with it; [`NoProgress`] shows
-//! nothing.
+//! How long-running library work (compiling, vis, validating, GVS baking) reports progress: a
+//! phase with a number of steps ([`phase`] begins one and ends it when its guard drops), steps
+//! done (possibly from several worker threads), and what the user should hear at once (a note, a
+//! warning). Libraries call it; the `sightline` binary draws progress bars and prints with it;
+//! [`NoProgress`] shows nothing. Stopping is the other half of the protocol
+//! ([`crate::cancel::Cancel`]).
 
 /// Receives progress; implementations must accept [`Progress::advance`] from any thread.
 pub trait Progress: Sync {
@@ -11,6 +13,16 @@ pub trait Progress: Sync {
     fn advance(&self, n: u64);
     /// The current phase is over.
     fn end(&self);
+    /// Something the user should know now, which changes nothing (for example that vis merges
+    /// clusters to fit its limits). Shown nowhere by default.
+    fn note(&self, message: &str) {
+        let _ = message;
+    }
+    /// Something wrong with the input that the work goes on past (for example a side file that
+    /// belongs to another compile). Shown nowhere by default.
+    fn warn(&self, message: &str) {
+        let _ = message;
+    }
 }
 
 /// A [`Progress`] that shows nothing.

@@ -22,7 +22,13 @@ pub(crate) fn interrupted(done: usize, total: usize, saved: bool) -> String {
 /// The flag Ctrl-C sets, once a vis options builder asked for it ([`ctrl_c_flag`]).
 static CTRL_C: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 
-/// A flag set by Ctrl-C, so vis stops at the next batch boundary and saves its state. A second
+/// The stop request every long command hands its library: Ctrl-C cancels it ([`ctrl_c_flag`]).
+pub(crate) fn cancel() -> sightline_job::cancel::Cancel {
+    sightline_job::cancel::Cancel::from_flag(ctrl_c_flag())
+}
+
+/// A flag set by Ctrl-C, so the work stops at its next safe point (vis at the next batch
+/// boundary, saving its state). A second
 /// Ctrl-C, once the flag is set, ends the process at once (exit 130). The handler only sets the
 /// flag (no thread waits for the signal); progress reports say that the stop is under way
 /// ([`announce_stop`]). If a handler cannot be installed, Ctrl-C keeps its default effect (the
@@ -42,10 +48,10 @@ pub(crate) fn ctrl_c_flag() -> Arc<AtomicBool> {
 }
 
 /// Says once on stderr, after Ctrl-C has set the flag, that the run is stopping. Every progress
-/// report of `vis` and `compile` calls it (a signal handler cannot print).
+/// report calls it (a signal handler cannot print).
 pub(crate) fn announce_stop() {
     static SAID: AtomicBool = AtomicBool::new(false);
     if CTRL_C.get().is_some_and(|f| f.load(Ordering::Relaxed)) && !SAID.swap(true, Ordering::Relaxed) {
-        eprintln!("\ninterrupt: stopping at the next batch of portals (Ctrl-C again to quit now)");
+        eprintln!("\ninterrupt: stopping at the next batch of work (Ctrl-C again to quit now)");
     }
 }

@@ -80,6 +80,14 @@ impl Progress for Bars {
         }
     }
 
+    fn note(&self, message: &str) {
+        self.suspend(|| eprintln!("note: {message}"));
+    }
+
+    fn warn(&self, message: &str) {
+        self.suspend(|| eprintln!("warning: {message}"));
+    }
+
     fn end(&self) {
         if let Ok(mut b) = self.bar.lock()
             && let Some(b) = b.take()

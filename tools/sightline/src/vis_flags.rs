@@ -76,7 +76,7 @@ impl VisFlags {
             state: self.state.clone(),
             checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_secs.max(1)),
             stop_after: self.stop_after,
-            cancel: Some(crate::interrupt::ctrl_c_flag()),
+            cancel: crate::interrupt::cancel(),
             max_memory: self.max_memory,
             max_work: self.max_work,
             coarsen: self.coarsen,

@@ -182,11 +182,7 @@ fn a_pvs_that_hides_a_visible_leaf_is_a_finding_exit_1() {
 /// `NAME` in the shared maps folder (`$SIGHTLINE_MAPS`, else `../shared/maps`), or `None` with a
 /// note when it is absent.
 fn shared_map(name: &str) -> Option<PathBuf> {
-    let path = sightline_tests::shared_maps().map(|d| d.join(name)).filter(|p| p.is_file());
-    if path.is_none() {
-        eprintln!("note: shared map {name} not found (set SIGHTLINE_MAPS); skipped");
-    }
-    path
+    sightline_tests::shared_map(name)
 }
 
 /// Copies the shared `.bsp` at `bsp` and its `.prt` (and `.texinfo.json`, when present) into a
@@ -482,6 +478,28 @@ fn printing_into_a_closed_pipe_is_not_a_panic() {
             assert_eq!(got, want, "{args:?}: the exit code of the full run: {err}");
         }
     }
+}
+
+/// A real Ctrl-C part way through a validation far too long to finish: it stops between leaves,
+/// says so, and exits 2 with no report.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_validate_promptly() {
+    use std::process::Stdio;
+    let Some(bsp) = shared_map("ericw/e1m1.vis.bsp") else { return };
+    // About an hour of one core: only a stop on request ends it within the bound below.
+    let args = ["validate", s(&bsp), "--rays", "5000000000", "--threads", "1", "--json"];
+    let child = bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let pid = child.id().to_string();
+    assert!(Command::new("kill").args(["-INT", &pid]).status().expect("kill runs").success());
+    let start = std::time::Instant::now();
+    let o = child.wait_with_output().expect("output");
+    assert!(start.elapsed() < std::time::Duration::from_secs(60), "stopped between leaves");
+    let err = stderr(&o);
+    assert_eq!(code(&o), 2, "interrupted: {err}");
+    assert!(err.contains("stopped before the sampling finished"), "{err}");
+    assert!(o.stdout.is_empty(), "no report from a stopped run");
 }
 
 /// Wait for `cmd` at most two minutes (a hang fails the test instead of stalling it).

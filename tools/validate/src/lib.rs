@@ -40,6 +40,8 @@ pub mod report;
 pub mod rng;
 pub(crate) mod sample;
 
+pub use sightline_job::cancel::Cancel;
+use sightline_job::progress;
 pub use sightline_job::progress::{NoProgress, Progress};
 
 use std::collections::BTreeMap;
@@ -67,6 +69,9 @@ pub const DEFAULT_RAYS: u64 = 16_000_000;
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ValidateError {
+    /// The run was cancelled ([`Options::cancel`]) before it finished: no report.
+    #[error("stopped before the sampling finished")]
+    Cancelled,
     /// The level has no models, so no world tree.
     #[error("the models lump is empty: the level has no world model (model 0) and so no tree")]
     NoWorldTree,
@@ -144,7 +149,13 @@ pub enum ValidateError {
 
 impl Default for Options {
     fn default() -> Self {
-        Self { rays: DEFAULT_RAYS, seed: 1, offset: DEFAULT_OFFSET, oracle: OracleChoice::Both }
+        Self {
+            rays: DEFAULT_RAYS,
+            seed: 1,
+            offset: DEFAULT_OFFSET,
+            oracle: OracleChoice::Both,
+            cancel: Cancel::new(),
+        }
     }
 }
 
@@ -161,7 +172,7 @@ pub enum OracleChoice {
 }
 
 /// Validation settings.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Options {
     /// Total ray budget per oracle (each bundle is 5 lines of 2 rays, or 1 line with offset 0).
     pub rays: u64,
@@ -171,6 +182,8 @@ pub struct Options {
     pub offset: f64,
     /// Oracles to run.
     pub oracle: OracleChoice,
+    /// Stops the run between leaves once cancelled, with [`ValidateError::Cancelled`].
+    pub cancel: Cancel,
 }
 
 /// Everything a run found: the printable report and the sampled matrices (per oracle, one per
@@ -210,13 +223,24 @@ pub fn validate(
     let mut sampled = Vec::new();
     if opts.oracle != OracleChoice::Mesh {
         let oracle = TreeOracle { tree: &tree, length };
-        let (r, m) = run_oracle("tree", &oracle, &tree, samplers.clone(), bundles, params, pvs, progress);
+        let (r, m) = run_oracle(
+            "tree",
+            &oracle,
+            &tree,
+            samplers.clone(),
+            bundles,
+            params,
+            pvs,
+            &opts.cancel,
+            progress,
+        )?;
         report.oracles.push(r);
         sampled.push(m);
     }
     if opts.oracle != OracleChoice::Tree {
         let oracle = MeshOracle::new(&tree, length).map_err(|source| ValidateError::Mesh { source })?;
-        let (r, m) = run_oracle("mesh", &oracle, &tree, samplers, bundles, params, pvs, progress);
+        let (r, m) =
+            run_oracle("mesh", &oracle, &tree, samplers, bundles, params, pvs, &opts.cancel, progress)?;
         report.oracles.push(r);
         sampled.push(m);
     }
@@ -269,10 +293,11 @@ fn run_oracle<O: RayOracle>(
     bundles: u32,
     params: SampleParams,
     pvs: &BitMatrix,
+    cancel: &Cancel,
     progress: &dyn Progress,
-) -> (OracleReport, Vec<BitMatrix>) {
+) -> Result<(OracleReport, Vec<BitMatrix>), ValidateError> {
     let sampled = AtomicBitMatrix::new(pvs.len());
-    progress.begin(name, samplers.len() as u64 * COVERAGE_STEPS.len() as u64);
+    let phase = progress::phase(progress, name, samplers.len() as u64 * COVERAGE_STEPS.len() as u64);
     let start = Instant::now();
     let mut rays = 0u64;
     let mut misses: BTreeMap<(u32, u32), Miss> = BTreeMap::new();
@@ -285,12 +310,18 @@ fn run_oracle<O: RayOracle>(
         let results: Vec<_> = samplers
             .par_iter_mut()
             .map_init(Scratch::default, |scratch, sampler| {
-                let r = sample::run_batch(oracle, tree, sampler, first, upto, params, pvs, &sampled, scratch);
-                progress.advance(1);
+                // Once cancelled, the leaves left are skipped and the run ends below.
+                let r = (!cancel.is_cancelled()).then(|| {
+                    sample::run_batch(oracle, tree, sampler, first, upto, params, pvs, &sampled, scratch)
+                });
+                phase.advance(1);
                 r
             })
             .collect();
-        for r in results {
+        if cancel.is_cancelled() {
+            return Err(ValidateError::Cancelled);
+        }
+        for r in results.into_iter().flatten() {
             rays += r.rays;
             for (k, m) in r.misses {
                 misses.entry(k).or_insert(m);
@@ -301,11 +332,11 @@ fn run_oracle<O: RayOracle>(
         steps.push(report::Coverage { fraction: format!("{num}/{den}"), rays, pairs: m.count() });
         matrices.push(m);
     }
-    progress.end();
+    drop(phase);
     let seconds = start.elapsed().as_secs_f64();
     let last = matrices.last().cloned().unwrap_or_else(|| BitMatrix::new(pvs.len()));
     let r = OracleReport::new(name, rays, seconds, steps, &last, pvs, misses.into_values().collect());
-    (r, matrices)
+    Ok((r, matrices))
 }
 
 #[cfg(test)]

@@ -85,6 +85,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         allow_leak: args.allow_leak,
         vis: (!args.no_vis).then(|| args.vis.options()),
         max_memory: args.vis.max_memory,
+        cancel: crate::interrupt::cancel(),
     };
     // Some phases advance per brush or face from worker threads: gather 32 steps per update.
     let bars = Bars::batched(args.json, 32);
@@ -104,6 +105,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }
         Err(CompileError::Vis(VisError::Interrupted { done, total })) => {
             anyhow::bail!("vis {}", crate::interrupt::interrupted(done, total, args.vis.state.is_some()))
+        }
+        Err(CompileError::Cancelled { phase }) => {
+            crate::interrupt::announce_stop();
+            anyhow::bail!("{}: stopped during {phase} on request; nothing was written", args.input.display())
         }
         // Vis's own message says what failed ("vis would need ..."): name the input before it.
         Err(CompileError::Vis(e)) => {

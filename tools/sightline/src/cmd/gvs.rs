@@ -286,12 +286,17 @@ fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<
     let index = SceneIndex { tris: &scene.triangles, bvh, neighbours, components, targets };
 
     let bars = &Bars::new(args.json);
+    let cancel = &crate::interrupt::cancel();
+    let stopped = |_| {
+        crate::interrupt::announce_stop();
+        anyhow::anyhow!("{}: stopped on request; nothing was written", args.input)
+    };
     let mut rows = Vec::new();
     // Per variant: the cells' results and the process CPU seconds their run took.
     let mut results: Vec<(Variant, Vec<Pvs>, Option<f64>)> = Vec::new();
     for &v in &variants {
         let cpu0 = cpu_seconds();
-        let pvs = gvs::run_variant(&index, &cells, v, params, bars);
+        let pvs = gvs::run_variant(&index, &cells, v, params, bars, cancel).map_err(stopped)?;
         let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
         results.push((v, pvs, cpu));
     }
@@ -311,7 +316,7 @@ fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<
     let mut list_missed = missed
         .map(|name| move |m: MeasuredView<'_>| bars.suspend(|| print_missed(args.missed, name, tris, &m)));
     let on_view = list_missed.as_mut().map(|f| f as &mut dyn FnMut(MeasuredView<'_>));
-    let errors = metric.measure(&cells, args.seed, &pvs_of, bars, on_view);
+    let errors = metric.measure(&cells, args.seed, &pvs_of, (bars, cancel), on_view).map_err(stopped)?;
     for ((v, pvs, cpu), e) in results.iter().zip(errors) {
         let mut r = row(v.name(), pvs, e);
         r.gvs_rays_per_cpu_second = gvs::rays_per_second(pvs, *cpu);
@@ -326,13 +331,14 @@ fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<
         if let Some(prev) = prev {
             let moved: Vec<Cell> = cells.iter().map(|c| c.translated(shift)).collect();
             let cpu0 = cpu_seconds();
-            let fresh = gvs::run_cells(&index, &moved, base, &|| {});
+            let fresh = gvs::run_cells(&index, &moved, base, &gvs::NoProgress, cancel).map_err(stopped)?;
             let cpu1 = cpu_seconds();
             let updated = update::update_cells(&index, prev, shift, base);
             let (cpu_fresh, cpu_update) =
                 (cpu1.zip(cpu0).map(|(b, a)| b - a), cpu_seconds().zip(cpu1).map(|(b, a)| b - a));
-            let errors =
-                metric.measure(&moved, args.seed.wrapping_add(1000), &[&fresh, &updated], bars, None);
+            let errors = metric
+                .measure(&moved, args.seed.wrapping_add(1000), &[&fresh, &updated], (bars, cancel), None)
+                .map_err(stopped)?;
             for ((name, pvs, cpu), e) in [
                 (format!("{}@moved", BEST.name()), &fresh, cpu_fresh),
                 ("incremental@moved".into(), &updated, cpu_update),

@@ -156,7 +156,12 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else if args.pvs_matrix {
         let sampled = match args.rays {
             Some(rays) => {
-                let opts = Options { rays, oracle: OracleChoice::Tree, ..Options::default() };
+                let opts = Options {
+                    rays,
+                    oracle: OracleChoice::Tree,
+                    cancel: crate::interrupt::cancel(),
+                    ..Options::default()
+                };
                 let mut v = validate::validate(&level, &pvs, &opts, &Bars::new(false)).with_context(file)?;
                 let misses = v.report.misses();
                 println!(

@@ -78,7 +78,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         eprintln!("note: {} has no faces: sampling against the BSP tree only", file());
         oracle = OracleArg::Tree;
     }
-    let opts = Options { rays: args.rays, seed: args.seed, offset: args.offset, oracle: oracle.into() };
+    let opts = Options {
+        rays: args.rays,
+        seed: args.seed,
+        offset: args.offset,
+        oracle: oracle.into(),
+        cancel: crate::interrupt::cancel(),
+    };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
     let mut v =
         pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;

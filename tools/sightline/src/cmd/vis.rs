@@ -13,14 +13,16 @@ use std::time::Instant;
 use anyhow::bail;
 
 use sightline_compiler::bsp_portals::BspPortalOptions;
-use sightline_compiler::dropin::{self, DropInError, DropInOptions, Hooks, Report};
-use sightline_compiler::vis::{VisError, VisPhase, VisProgress, VisStats};
+use sightline_compiler::dropin::{self, DropInError, DropInOptions, Report};
+use sightline_compiler::vis::{VisError, VisStats};
 use sightline_formats::texture::Ambient;
+use sightline_job::progress::Progress;
 
 pub use ericw::{ericw_args, single_dash_name};
 
-use crate::interrupt::{announce_stop, interrupted};
+use crate::interrupt::interrupted;
 use crate::outcome::Outcome;
+use crate::progress::Bars;
 use crate::vis_flags::VisFlags;
 
 /// What `sightline vis` does: its line in `sightline --help` and the first line of its own help.
@@ -168,7 +170,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let quiet = args.json || args.no_progress;
     if args.external_vis && path.is_dir() {
         let Some(out) = &args.output else { bail!("folder mode needs -o") };
-        let report = with_progress(true, &opts, |hooks| dropin::pack(&path, out, &opts, hooks))?;
+        let report = with_progress(true, &opts, |progress| dropin::pack(&path, out, &opts, progress))?;
         crate::out::report(args.json, &report, || text::pack(&report))?;
         return Ok(if report.skipped.is_empty() { Outcome::Clean } else { Outcome::Finding });
     }
@@ -178,7 +180,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             .then(|| args.output.clone().unwrap_or_else(|| path.with_extension("vis"))),
         ..opts
     };
-    let report = with_progress(quiet, &opts, |hooks| dropin::run(&path, &opts, hooks, t0))?;
+    let report = with_progress(quiet, &opts, |progress| dropin::run(&path, &opts, progress, t0))?;
     match &report {
         Report::Quake(r) => crate::out::report(args.json, r, || text::quake(r))?,
         Report::Quake2(r) => crate::out::report(args.json, r, || text::quake2(r))?,
@@ -213,43 +215,21 @@ fn check_flags(args: &Args, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `work` with vis progress bars (hidden when `quiet` or without a terminal), warnings said
-/// as they come, and the library's errors turned into what the user reads: a stop by Ctrl-C says
-/// how to resume. A vis merged to fit its limits says so.
+/// Runs `work` with progress bars (hidden when `quiet` or without a terminal; notes and warnings
+/// said as they come), and turns the library's errors into what the user reads: a stop by Ctrl-C
+/// says how to resume. A vis merged to fit its limits says so.
 fn with_progress<T>(
     quiet: bool,
     opts: &DropInOptions,
-    work: impl FnOnce(Hooks<'_>) -> Result<T, DropInError>,
+    work: impl FnOnce(&dyn Progress) -> Result<T, DropInError>,
 ) -> anyhow::Result<T>
 where
     T: HasStats,
 {
-    let base = crate::progress::bar("base", 0, quiet);
-    let flow = crate::progress::bar("flow", 0, quiet);
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
-    let progress = |p: VisProgress| {
-        announce_stop();
-        if p.phase == VisPhase::Coarsen {
-            // Said at once: a merged run may still take long, and its PVS is looser.
-            eprintln!(
-                "note: vis does not fit its memory or work limit: merging {} clusters into {} (--coarsen)",
-                p.total, p.done
-            );
-            return;
-        }
-        if quiet || (!p.done.is_multiple_of(32) && p.done != p.total) {
-            return;
-        }
-        let bar = if p.phase == VisPhase::Base { &base } else { &flow };
-        bar.set_length(p.total as u64);
-        bar.set_position(p.done as u64);
-    };
-    let warn = |w: &str| eprintln!("warning: {w}");
-    let result = work(Hooks { progress: &progress, warn: &warn });
-    base.finish_and_clear();
-    flow.finish_and_clear();
-    match result {
+    let bars = Bars::batched(quiet, 32);
+    match work(&bars) {
         Ok(r) => {
             for s in r.stats() {
                 warn_coarsened(s);
