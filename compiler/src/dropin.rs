@@ -2,7 +2,7 @@
 //! compiler wrote) or rebuilt from its tree, to a PVS (with the PHS, ambient levels and far plane
 //! as the game has them) written back into the `.bsp`, into an external `.vis` file, or, for a
 //! portal file alone, into `NAME.vis`. One route for every game, as the reference vis tools run:
-//! an editor plugin or a build farm calls [`run`] (or [`pack`] for a folder) and gets the file
+//! an editor plugin or a build farm calls [`run`] (or [`pack()`] for a folder) and gets the file
 //! written atomically and a [`Report`].
 //!
 //! | input | portals | written | module |
@@ -15,7 +15,7 @@
 //! The game is found once from the file's first bytes ([`sightline_formats::bsp::Game::sniff`]).
 //! Options a game cannot use are refused before any work, naming the file.
 
-pub mod pack;
+pub mod folder;
 pub mod quake;
 pub mod quake2;
 pub mod quake3;
@@ -179,8 +179,8 @@ pub fn run(
     }
 }
 
-/// Vis of every `.bsp` in the folder `dir` into one external `.vis` pack at `out` (see [`pack`]).
-pub use pack::run as pack;
+/// Vis of every `.bsp` in the folder `dir` into one external `.vis` pack at `out` (see [`folder`]).
+pub use folder::run as pack;
 
 /// The game of the file at `path` from its first 8 bytes, or `None` when it is shorter, cannot be
 /// read, or is no compiled map (a portal file); the readers report those properly later.
