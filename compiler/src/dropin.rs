@@ -196,6 +196,21 @@ pub(crate) fn read(path: &Path) -> Result<Vec<u8>, DropInError> {
     std::fs::read(path).map_err(|source| DropInError::Read { path: path.into(), source })
 }
 
+/// The portal file beside the compiled map at `path` ([`sightline_formats::prt::beside_bsp`]),
+/// read; `hint` ends the error when there is none (how the game's compiler writes one).
+pub(crate) fn portals_beside(
+    path: &Path,
+    hint: &str,
+) -> Result<(PathBuf, sightline_formats::prt::PortalFile), DropInError> {
+    let tried = sightline_formats::prt::beside_bsp(path);
+    let Some(prt_path) = tried.iter().find(|p| p.is_file()) else {
+        return Err(DropInError::refused(path, format!("no portal file beside it (tried {tried:?}{hint})")));
+    };
+    let bytes = read(prt_path)?;
+    let prt = sightline_formats::prt::read_bytes(&bytes, &prt_path.display().to_string())?;
+    Ok((prt_path.clone(), prt))
+}
+
 /// Writes `bytes` to `path` atomically, with the durability of work started at `started`.
 pub(crate) fn write(path: &Path, bytes: &[u8], started: Instant) -> Result<(), DropInError> {
     write_file_with(path, bytes, Durability::for_work(started.elapsed()))

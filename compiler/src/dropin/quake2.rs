@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use sightline_formats::bits;
 use sightline_formats::bsp::{CompiledMap, Parsed, q2};
-use sightline_formats::prt::{self, PrtFormat};
+use sightline_formats::prt::PrtFormat;
 
 use sightline_job::progress::Progress;
 
@@ -57,12 +57,8 @@ pub fn run(
         };
         (out, report)
     } else {
-        let tried = prt::beside_bsp(path);
-        let Some(prt_path) = tried.iter().find(|p| p.is_file()) else {
-            return Err(DropInError::refused(path, format!("no portal file beside it (tried {tried:?})")));
-        };
-        let prt_bytes = super::read(prt_path)?;
-        let prt = prt::read_bytes(&prt_bytes, &prt_path.display().to_string())?;
+        let (prt_path, prt) = super::portals_beside(path, "")?;
+        let prt_path = &prt_path;
         let clusters = map.clusters();
         if prt.format != PrtFormat::Prt1 || prt.num_leaves as usize != clusters {
             return Err(DropInError::refused(

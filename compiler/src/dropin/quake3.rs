@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use sightline_formats::bsp::{CompiledMap, q3};
-use sightline_formats::prt::{self, PrtFormat};
+use sightline_formats::prt::PrtFormat;
 
 use sightline_job::progress::Progress;
 
@@ -36,16 +36,9 @@ pub fn run(
     let name = path.display();
     let map = CompiledMap::read(super::read(path)?).map_err(DropInError::bsp(path))?;
     map.check_vis_layout().map_err(DropInError::bsp(path))?;
-    let tried = prt::beside_bsp(path);
-    let Some(prt_path) = tried.iter().find(|p| p.is_file()) else {
-        return Err(DropInError::refused(
-            path,
-            format!("no portal file beside it (tried {tried:?}; run q3map2 -bsp, or -vis with -saveprt)"),
-        ));
-    };
+    let (prt_path, portals) = super::portals_beside(path, "; run q3map2 -bsp, or -vis with -saveprt")?;
+    let prt_path = &prt_path;
     let prt_name = prt_path.display().to_string();
-    let prt_bytes = super::read(prt_path)?;
-    let portals = prt::read_bytes(&prt_bytes, &prt_name)?;
     let clusters = map.clusters();
     let over_clusters = matches!(portals.format, PrtFormat::Q3map2 | PrtFormat::Prt1);
     if !over_clusters || portals.num_clusters as usize != clusters {
