@@ -3,8 +3,8 @@
 //! map whose source and `.prt` are lost can be vised again.
 //!
 //! # How
-//! Model 0's hull-0 node tree is copied into a [`Tree`] (pre-order, front child first) and
-//! portalized by [`crate::portals::build_with`], the compiler's own qbsp-style builder: a huge
+//! Model 0's hull-0 node tree is copied into the builder's `bsp::Tree` (pre-order, front child first) and
+//! portalized by `portals::build_with`, the compiler's own qbsp-style builder: a huge
 //! winding on each node's plane, clipped by the ancestors' planes and a box, split down the
 //! subtree to the leaves. The box is the world model's bounds and the root node's, grown by
 //! [`BOX_MARGIN`] (qbsp's own margin) and kept within [`WORLD_LIMIT`]. Every portal between two
@@ -24,7 +24,7 @@
 //!   of the cluster gets the row of the whole region, a superset of its own. Without detail,
 //!   leaves rarely share rows and the file stays PRT1; with detail, qbsp's clusters come back and
 //!   vis runs as fast as on its `.prt`. [`BspPortalOptions::no_clusters`] turns this off.
-//! - Contents decide sight as Quake's tools do ([`sight_passes_with`]): solid (-2) blocks; sky
+//! - Contents decide sight as Quake's tools do (`sight_passes_with`): solid (-2) blocks; sky
 //!   (-6) joins only sky; water (-3), slime (-4) and lava (-5) join empty space and each other
 //!   unless liquids are opaque ([`LiquidSight::Opaque`], qbsp without `-transwater`: then only
 //!   leaves of equal contents are joined). A contents code Quake does not define counts as empty:
@@ -35,7 +35,7 @@
 //!   clipping keeps. A node whose plane has no normal is an error.
 //! - Windings are clockwise seen from the portal's first leaf (the node's front), as the compiler
 //!   writes them. Pieces too small to keep three corners [`ON_EPSILON`] apart are kept with their
-//!   unmerged corners ([`TinyPieces::Keep`]): a portal is never dropped for being small.
+//!   unmerged corners (the builder's `TinyPieces::Keep`): a portal is never dropped for being small.
 //! - A tree deeper than [`MAX_DEPTH`] is refused (the node graph is acyclic once
 //!   [`sightline_formats::bsp::read`] accepts it; the walks are iterative and visit each node
 //!   once).

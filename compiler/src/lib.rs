@@ -7,11 +7,6 @@
 //! `.bsp` and `.vis` files). Output is identical for any thread count:
 //! parallel steps collect in input order and tree building uses `rayon::join` only.
 
-#![warn(missing_docs)]
-// The module docs of `bsp_portals` link to the private stages it builds on (`bsp::Tree`,
-// `portals::build_with`): those links resolve in `cargo doc --document-private-items`.
-#![allow(rustdoc::private_intra_doc_links)]
-
 mod brush;
 mod bsp;
 pub mod bsp_portals;

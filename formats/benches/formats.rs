@@ -2,7 +2,7 @@
 //! Real levels come from `$SIGHTLINE_MAPS` (default `../shared/maps`); without them only the row
 //! codec is measured.
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_main};
 use sightline_formats::{bsp, rle, slvl};
 use std::hint::black_box;
 
@@ -53,5 +53,8 @@ fn files(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, rows, files);
-criterion_main!(benches);
+// `criterion_group!` defines a public function; in a module of its own it needs no docs.
+mod group {
+    criterion::criterion_group!(benches, super::rows, super::files);
+}
+criterion_main!(group::benches);

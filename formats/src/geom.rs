@@ -162,18 +162,6 @@ impl Plane {
         (self.normal - other.normal).abs().max_element() < NORMAL_EPSILON
             && (self.dist - other.dist).abs() < DIST_EPSILON
     }
-
-    /// The side of a single point with tolerance `eps`.
-    pub fn point_side(&self, p: DVec3, eps: f64) -> Side {
-        let d = self.distance(p);
-        if d > eps {
-            Side::Front
-        } else if d < -eps {
-            Side::Back
-        } else {
-            Side::On
-        }
-    }
 }
 
 /// An axis-aligned box. An empty box has `mins > maxs` (see [`Aabb::EMPTY`]).

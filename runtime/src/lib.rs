@@ -15,7 +15,6 @@
 //! [`Scratch`], so culling allocates nothing per frame.
 
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
 
 // Layers, bottom up (a module imports only from layers below it):
 // 1. `error`, `camera`: no crate imports.

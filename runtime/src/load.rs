@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
-use sightline_formats::bsp::q2;
+use sightline_formats::bsp::{CompiledMap, Parsed};
 use sightline_formats::level::{Level, LevelPlane, Portal};
 use sightline_formats::prt::{self, PortalFile, PrtFormat};
-use sightline_formats::{bsp, slvl};
+use sightline_formats::slvl;
 
 use crate::error::LoadError;
 use crate::pvs::PvsRows;
@@ -19,52 +19,56 @@ fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
     World::new(&slvl::read(bytes)?)
 }
 
-/// Load a Quake-family `.bsp` with its visdata. Quake 1 and Half-Life (BSP29, BSP2, BSP2-RMQ,
-/// BSP30): leaf `i` of the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1` (see
-/// [`bsp::to_level`]); Quake 2 (`IBSP` 38): as [`load_q2`]; Quake 3 (`IBSP`
-/// 46/47): its own clusters and cluster PVS ([`bsp::q3::to_level`]). The world has no portals.
-fn load_bsp(bytes: &[u8]) -> Result<World, LoadError> {
-    if bsp::q3::is_q3(bytes) {
-        return World::new(&bsp::q3::to_level(&bsp::q3::read(bytes)?));
-    }
-    if q2::is_q2(bytes) {
-        return load_q2(bytes);
-    }
-    World::new(&bsp::to_level(&bsp::read(bytes)?))
+/// Load a Quake-family `.bsp` with its visdata, read through the one view of a compiled map
+/// ([`CompiledMap::read`] tells the game by the first bytes) and made a level by
+/// [`CompiledMap::to_level`]: Quake 1 and Half-Life (BSP29, BSP2, BSP2-RMQ, BSP30) leaf `i` of
+/// the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1`; Quake 2 (`IBSP` 38) and
+/// Quake 3 (`IBSP` 46/47) leaves keep their clusters, and a Quake 2 world keeps the file's PHS
+/// rows too ([`World::decode_phs`] decodes them; [`sightline_formats::bsp::q2::read`] checked
+/// that they decode). The world has no portals.
+fn load_bsp(map: &CompiledMap) -> Result<World, LoadError> {
+    world_of(map, map.to_level()?)
 }
 
-/// Load a Quake 2 `.bsp` (`IBSP` 38): leaves keep their clusters, and the PVS and PHS rows are
-/// the file's (see [`q2::to_level`]; [`World::decode_phs`] decodes the stored PHS, which
-/// [`sightline_formats::bsp::q2::read`] checked decodes).
-fn load_q2(bytes: &[u8]) -> Result<World, LoadError> {
-    let file = q2::read(bytes)?;
-    let phs = file.vis.as_ref().and_then(|vis| {
-        let num_clusters = u32::try_from(vis.num_clusters).ok()?;
-        let offsets = vis.offsets.iter().map(|o| o[1]).collect();
-        Some(PvsRows::from_parts(num_clusters, offsets, vis.data.clone()))
-    });
-    World::with_phs(&q2::to_level(bytes, &file)?, phs)
+/// The world of `level`, made from `map`: with the stored PHS rows of a Quake 2 map.
+fn world_of(map: &CompiledMap, level: Level) -> Result<World, LoadError> {
+    match map.parsed() {
+        Parsed::Quake2(file) => {
+            let phs = file.vis.as_ref().and_then(|vis| {
+                let num_clusters = u32::try_from(vis.num_clusters).ok()?;
+                let offsets = vis.offsets.iter().map(|o| o[1]).collect();
+                Some(PvsRows::from_parts(num_clusters, offsets, vis.data.clone()))
+            });
+            World::with_phs(&level, phs)
+        }
+        Parsed::Quake(_) | Parsed::Quake3(_) => World::new(&level),
+    }
 }
 
-/// Load a Quake `.bsp` and take its portals from the text of the `.prt` file its compiler wrote.
-fn load_bsp_with_prt(bytes: &[u8], prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
-    let mut level = bsp::to_level(&bsp::read(bytes)?);
+/// Load a Quake 1 or Half-Life `.bsp` and take its portals from the text of the `.prt` file its
+/// compiler wrote.
+fn load_bsp_with_prt(map: &CompiledMap, prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
+    let mut level = map.to_level()?;
     let prt = prt::read(prt_text, prt_name)?;
     add_prt_portals(&mut level, &prt)?;
-    World::new(&level)
+    world_of(map, level)
 }
 
 /// Load `.slvl` or `.bsp` bytes (any game of the family), told apart by their first four bytes.
 /// No portal file is read: the portal backend is available for a `.slvl` with portals.
 pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
-    if bytes.starts_with(&slvl::MAGIC) { load_slvl(bytes) } else { load_bsp(bytes) }
+    if bytes.starts_with(&slvl::MAGIC) {
+        load_slvl(bytes)
+    } else {
+        load_bsp(&CompiledMap::read(bytes.to_vec())?)
+    }
 }
 
 /// Load a file. For a Quake 1 or Half-Life `.bsp`, the portal file beside it
 /// ([`sightline_formats::prt::find_beside_bsp`], the rule `vis` follows too) is used when present
-/// and in PRT1 form (`\n` or `\r\n` line breaks alike); a Quake 2 portal file names clusters, not
-/// leaves, and is not read. Every error names the file: [`LoadError::Io`] by itself, the others
-/// inside [`LoadError::File`].
+/// and in PRT1 form (`\n` or `\r\n` line breaks alike); Quake 2 and Quake 3 portal files name
+/// clusters, not leaves, and are not read. Every error names the file: [`LoadError::Io`] by
+/// itself, the others inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
     let io = |source| LoadError::Io { path: path.display().to_string(), source };
     let bytes = std::fs::read(path).map_err(io)?;
@@ -75,9 +79,10 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) {
         return load_slvl(&bytes).map_err(in_file);
     }
-    // Quake 2 and Quake 3 portals (every `IBSP`) join clusters, not leaves: the portal backend
-    // cannot use them.
-    if let Some(prt_path) = sibling_prt(path).filter(|_| !q2::is_q2(&bytes))
+    let map = CompiledMap::read(bytes).map_err(|e| in_file(e.into()))?;
+    // Quake 2 and Quake 3 portals join clusters, not leaves: the portal backend cannot use them.
+    if let Parsed::Quake(_) = map.parsed()
+        && let Some(prt_path) = sibling_prt(path)
         && let Ok(prt_bytes) = std::fs::read(&prt_path)
         && let text = String::from_utf8_lossy(&prt_bytes)
         && PrtFormat::of_text(&text) == Some(PrtFormat::Prt1)
@@ -88,9 +93,9 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
             LoadError::Prt(_) => LoadError::File { path: prt_name.clone(), source: Box::new(e) },
             other => other,
         };
-        return load_bsp_with_prt(&bytes, &text, &prt_name).map_err(in_prt).map_err(in_file);
+        return load_bsp_with_prt(&map, &text, &prt_name).map_err(in_prt).map_err(in_file);
     }
-    load_bsp(&bytes).map_err(in_file)
+    load_bsp(&map).map_err(in_file)
 }
 
 /// The portal file beside a `.bsp` that exists, by the one rule every reader follows
@@ -100,7 +105,7 @@ fn sibling_prt(path: &Path) -> Option<std::path::PathBuf> {
     prt::find_beside_bsp(path)
 }
 
-/// Append the portals of a PRT1 file to a level made by [`bsp::to_level`]: vis leaf `i` of the
+/// Append the portals of a PRT1 file to a Quake 1 level made by [`CompiledMap::to_level`]: vis leaf `i` of the
 /// portal file is leaf `i + 1` of the level, and the winding's plane (which faces into its first
 /// leaf) becomes the portal's plane, so the level's convention (normal into `leaves[0]`) holds.
 fn add_prt_portals(level: &mut Level, prt: &PortalFile) -> Result<(), LoadError> {

@@ -5,8 +5,6 @@
 //! (brute-force reference answers for `sightline-runtime`) and [`synth`] (synthetic levels built
 //! in code).
 
-#![warn(missing_docs)]
-
 pub mod mapgen;
 pub mod shapes;
 

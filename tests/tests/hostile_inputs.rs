@@ -27,6 +27,7 @@ fn note(delta: isize) {
 
 // SAFETY: every method forwards to `System` with the same arguments; the bookkeeping only touches
 // const-initialised thread-locals, which never allocate.
+#[allow(unsafe_code)] // A global allocator is an `unsafe` trait; it forwards to `System`.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         note(layout.size() as isize);

@@ -23,7 +23,6 @@
 //!   vertex-coloured checker material.
 
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
 
 pub mod asset;
 pub mod components;

@@ -25,9 +25,6 @@
 //! Static linking: `pkg-config --static --libs sightline` adds the system libraries Rust's
 //! standard library needs.
 
-#![deny(unsafe_code)]
-#![warn(missing_docs)]
-
 // Modules, one concern each; `status` and `handles` first, the entry points above them.
 // The modules with entry points allow `unsafe_code`: a C ABI takes raw pointers from C (read and
 // written in `unsafe` blocks, each with its SAFETY contract) and exports unmangled

@@ -21,8 +21,6 @@
 //! triangles that only tiny ray bundles reach. Results are deterministic for any thread count:
 //! each cell is sampled sequentially, cells run in parallel.
 
-#![warn(missing_docs)]
-
 pub mod cells;
 pub(crate) mod components;
 pub mod error;

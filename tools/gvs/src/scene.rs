@@ -1,11 +1,13 @@
 //! Triangle scenes for GVS: generated (`gen:<kind>:<size>`), `.obj` meshes, and the faces of a
-//! compiled level (fanned into triangles, remembering which face each triangle came from); and
-//! [`load`], which picks one of them from a scene argument.
+//! compiled level (a `.slvl`, or a `.bsp` of any Quake-family game; fanned into triangles,
+//! remembering which face each triangle came from); and [`load`], which picks one of them from a
+//! scene argument.
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use sightline_formats::Level;
+use sightline_formats::bsp::{BspError, CompiledMap};
 use sightline_formats::obj::ObjError;
 use sightline_formats::slvl::SlvlError;
 
@@ -123,14 +125,24 @@ pub enum LoadError {
         #[source]
         source: SlvlError,
     },
+    /// A compiled map that does not read as a `.bsp` of any Quake-family game.
+    #[error("{}", path.display())]
+    Bsp {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        #[source]
+        source: BspError,
+    },
     /// Neither a `gen:` spec nor a file of a known kind.
-    #[error("{0}: expected gen:<kind>:<size>, a .obj or a .slvl")]
+    #[error("{0}: expected gen:<kind>:<size>, a .obj, a .slvl or a .bsp")]
     Input(String),
 }
 
 /// Load the scene `input` names, and the level when it is one: a generated scene
-/// (`gen:<kind>:<size>`, see [`scenegen::parse_spec`], from `scene_seed`), an `.obj` mesh or a
-/// `.slvl` level (by the extension, in any case).
+/// (`gen:<kind>:<size>`, see [`scenegen::parse_spec`], from `scene_seed`), an `.obj` mesh, a
+/// `.slvl` level or a compiled `.bsp` of any Quake-family game (as [`CompiledMap::to_level`]
+/// makes it a level), by the extension, in any case.
 pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), LoadError> {
     if let Some(spec) = scenegen::parse_spec(input) {
         let (kind, size) = spec?;
@@ -140,8 +152,8 @@ pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), L
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
     match ext.as_str() {
         "obj" => Ok((load_obj(path)?, None)),
-        "slvl" => {
-            let level = read_level(path)?;
+        "slvl" | "bsp" => {
+            let level = if ext == "bsp" { read_bsp(path)? } else { read_level(path)? };
             Ok((from_level(&level), Some(level)))
         }
         _ => Err(LoadError::Input(input.to_string())),
@@ -159,9 +171,26 @@ fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
 
 /// Read and validate the `.slvl` level at `path`.
 fn read_level(path: &Path) -> Result<Level, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Read { path: path.to_path_buf(), source })?;
+    let bytes = read_file(path)?;
     sightline_formats::slvl::read(&bytes)
         .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })
+}
+
+/// Read the compiled map at `path` (any Quake-family game) as a level, and validate it as a
+/// `.slvl` is validated when read.
+fn read_bsp(path: &Path) -> Result<Level, LoadError> {
+    let bytes = read_file(path)?;
+    let level = CompiledMap::read(bytes)
+        .and_then(|map| map.to_level())
+        .map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
+    sightline_formats::slvl::validate(&level)
+        .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })?;
+    Ok(level)
+}
+
+/// The bytes of the file at `path`.
+fn read_file(path: &Path) -> Result<Vec<u8>, LoadError> {
+    std::fs::read(path).map_err(|source| LoadError::Read { path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]
@@ -205,6 +234,19 @@ mod tests {
         assert_eq!(cells.len(), 1);
         assert_eq!(cells[0].min, Vec3::new(0.25, 1.0, 0.75));
         assert_eq!(cells[0].max, Vec3::new(0.75, 9.0, 2.25));
+    }
+
+    #[test]
+    fn a_bsp_that_does_not_read_names_the_file() {
+        let dir = std::env::temp_dir().join(format!("sightline-gvs-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("broken.BSP");
+        std::fs::write(&path, b"IBSP\x26\0\0\0 too short").expect("write");
+        let err = load(path.to_str().expect("utf-8 path"), 0).expect_err("a broken .bsp loads");
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(matches!(&err, LoadError::Bsp { path: p, .. } if p.ends_with("broken.BSP")), "{err:?}");
+        let err = load("scene.txt", 0).expect_err("a .txt loads");
+        assert!(err.to_string().contains("a .slvl or a .bsp"), "{err}");
     }
 
     #[test]

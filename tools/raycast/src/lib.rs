@@ -30,11 +30,9 @@
 //! - `query`: box queries ([`Bvh::overlapping`]) and triangle groups ([`Bvh::groups`]).
 //! - `brute`: [`intersect_brute`], the reference the tree is tested against.
 
-#![warn(missing_docs)]
-// Only two places need `unsafe`, each allowed where it is: calling the AVX-512/AVX2 builds of the
-// packet kernel after checking the CPU has them (`packet`), and reading the one-ray traversal
-// stack's uninitialised storage (`stack`).
-#![deny(unsafe_code)]
+// `unsafe` is denied workspace-wide. Only two places need it, each allowed where it is: calling
+// the AVX-512/AVX2 builds of the packet kernel after checking the CPU has them (`packet`), and
+// reading the one-ray traversal stack's uninitialised storage (`stack`).
 
 mod brute;
 mod build;

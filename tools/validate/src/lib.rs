@@ -27,8 +27,6 @@
 //! tree walks ([`bsp`]), the PVS decoding ([`pvs`]) and the sampling are written here, so that a
 //! bug in vis or in the runtime cannot hide a bug in a PVS.
 
-#![warn(missing_docs)]
-
 pub(crate) mod atomic;
 pub mod bsp;
 pub(crate) mod cell;
