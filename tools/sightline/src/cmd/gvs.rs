@@ -1,7 +1,7 @@
 //! `sightline gvs`: guided visibility sampling per view cell, with the thesis' error metric.
 //!
 //! Scenes: `gen:<city|spheres|mixed|mesh>:<size>` (see [`sightline_gvs::scenegen`]), a `.obj`
-//! mesh, or a compiled level (`.slvl`). Cells: `auto` (the generator's suggestion), a grid cell
+//! mesh, or a compiled level (`.slvl`, or a `.bsp` of any Quake-family game). Cells: `auto` (the generator's suggestion), a grid cell
 //! size, `leaves` (a level's open leaves), or `x0,y0,z0,x1,y1,z1`; `--cell` can be repeated.
 //!
 //! With `--compare`, every variant ([`Variant::ALL`]) runs on the same cells and is
@@ -36,7 +36,7 @@ pub const ABOUT: &str = "Guided visibility sampling for triangle meshes";
 #[derive(Debug, clap::Args)]
 #[command(about = ABOUT)]
 pub struct Args {
-    /// Scene: `gen:<city|spheres|mixed|mesh>:<size>`, a `.obj` mesh or a `.slvl` level.
+    /// Scene: `gen:<city|spheres|mixed|mesh>:<size>`, a `.obj` mesh, a `.slvl` level or a compiled `.bsp` of any Quake-family game.
     pub input: String,
     /// View cells: `auto`, a grid cell size, `leaves`, or `x0,y0,z0,x1,y1,z1` (repeatable).
     #[arg(long, default_value = "auto")]
@@ -618,7 +618,7 @@ fn parse_cells(
         }
         "leaves" => {
             let Some(level) = level else {
-                bail!("`--cell leaves` needs a level (.slvl) input");
+                bail!("`--cell leaves` needs a level input (.slvl or .bsp)");
             };
             Ok(scene::leaf_cells(level, 1.0))
         }
