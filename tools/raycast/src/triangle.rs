@@ -18,6 +18,8 @@ pub(crate) struct Ray {
 }
 
 impl Ray {
+    /// The ray's shear constants (watertight test), for `dir`'s dominant axis.
+    #[inline]
     pub(crate) fn new(origin: Vec3, dir: Vec3) -> Ray {
         let kz = dominant_axis(dir);
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
