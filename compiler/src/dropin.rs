@@ -109,6 +109,10 @@ pub enum DropInError {
         #[source]
         source: Box<VisdataError>,
     },
+    /// An output would replace one of the run's inputs (the `.bsp`, the portal file) or another
+    /// output; refused before any work.
+    #[error(transparent)]
+    NotApart(#[from] sightline_job::apart::CheckError),
     /// The portal file does not parse (the error names the file).
     #[error(transparent)]
     Prt(#[from] sightline_formats::prt::PrtError),

@@ -41,6 +41,13 @@ pub fn run(
         .filter(|p| is_bsp(p) && p.is_file())
         .collect();
     files.sort();
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    for f in &files {
+        inputs.push(f.clone());
+        inputs.extend(sightline_formats::prt::beside_bsp(f));
+    }
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    sightline_job::apart::check_apart(&inputs, &[out])?;
     let mut records: Vec<VisPatchRecord> = Vec::new();
     let mut report = PackReport {
         input: dir.display().to_string(),

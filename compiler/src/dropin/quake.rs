@@ -31,6 +31,16 @@ pub fn run(
     if opts.phs_only {
         return Err(DropInError::refused(path, "--phs-only needs a Quake 2 .bsp (IBSP 38)"));
     }
+    // The files this run writes (a `.bsp` is rewritten in place, on purpose) must not be its inputs.
+    let written = match &opts.external_vis {
+        Some(out) => Some(out.clone()),
+        None => (!is_bsp(path)).then(|| path.with_extension("vis")),
+    };
+    if let Some(out) = &written {
+        let beside = sightline_formats::prt::beside_bsp(path);
+        let inputs: Vec<&Path> = std::iter::once(path).chain(beside.iter().map(|p| p.as_path())).collect();
+        sightline_job::apart::check_apart(&inputs, &[out])?;
+    }
     let (input, rebuilt) = read_input(path, opts)?;
     let farplane = opts.farplane();
     if farplane.is_some() && input.bsp.is_none() {

@@ -5,6 +5,7 @@
 //! The compiler, validation and GVS baking take a [`progress::Progress`] and a
 //! [`cancel::Cancel`]; the `sightline` binary draws the bars and turns Ctrl-C into a cancel.
 
+pub mod apart;
 pub mod atomic;
 pub mod cancel;
 pub mod progress;

@@ -10,6 +10,13 @@ use std::time::Instant;
 use anyhow::Context;
 use sightline_job::atomic::{Durability, write_file_with};
 
+/// Refuses, before any work, outputs that would replace one of the command's `inputs` or one
+/// another ([`sightline_job::apart::check_apart`]: by file identity, so `./a.map`, symlinks and
+/// hard links count as the same file).
+pub fn check_apart(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
+    Ok(sightline_job::apart::check_apart(inputs, outputs)?)
+}
+
 /// Writes `bytes` to `path` atomically, with the durability of work started at `started`.
 pub fn write(path: &Path, bytes: &[u8], started: Instant) -> anyhow::Result<()> {
     write_file_with(path, bytes, Durability::for_work(started.elapsed()))

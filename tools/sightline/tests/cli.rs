@@ -1342,3 +1342,60 @@ fn every_subcommand_prints_its_help() {
         assert!(help.contains("Usage:") && help.contains(sub.as_str()), "{sub} --help:\n{help}");
     }
 }
+
+/// Every output that would replace an input, or another output of the same run, is refused
+/// before any work with exit 2, whatever the spelling: the same name, `./name`, a symlink, a hard
+/// link. Every input is left byte for byte as it was.
+#[test]
+fn an_output_that_is_an_input_is_refused_before_any_work() {
+    let dir = temp_dir("apart");
+    let map = dir.join("k.map");
+    std::fs::copy(maps().join("two_rooms.map"), &map).expect("copy map");
+    let level = dir.join("k.slvl");
+    let o = run(&["compile", s(&map), "-o", s(&level), "--no-vis"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let prt = dir.join("k.prt");
+    let bsp = dir.join("e.bsp");
+    let Some(shared) = shared_map("id_bsp_orig/e1m1.bsp") else { return };
+    std::fs::copy(shared, &bsp).expect("copy bsp");
+    std::fs::copy(&prt, dir.join("e.prt")).expect("a portal file beside the bsp");
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&map, dir.join("link.map")).expect("symlink");
+        std::fs::hard_link(&map, dir.join("hard.map")).expect("hard link");
+    }
+    let dotted = format!("{}/./k.map", s(&dir));
+    let link = dir.join("link.map");
+    let hard = dir.join("hard.map");
+    let e_prt = dir.join("e.prt");
+    let png = dir.join("e.png");
+    let mut cases: Vec<Vec<&str>> = vec![
+        vec!["compile", s(&map), "-o", s(&map)],
+        vec!["compile", s(&map), "-o", &dotted],
+        vec!["compile", s(&map), "-o", s(&prt)],
+        vec!["portals", s(&bsp), "-o", s(&bsp)],
+        vec!["render", s(&bsp), "-o", s(&bsp), "--plan", "--from", "0,0,0"],
+        vec!["render", s(&level), "-o", s(&e_prt), "--plan", "--from", "0,0,0", "--prt", s(&e_prt)],
+        vec!["vis", s(&bsp), "--external-vis", "-o", s(&bsp)],
+        vec!["vis", s(&bsp), "--external-vis", "-o", s(&e_prt)],
+    ];
+    if cfg!(unix) {
+        cases.push(vec!["compile", s(&map), "-o", s(&link)]);
+        cases.push(vec!["compile", s(&map), "-o", s(&hard)]);
+    }
+    let before: Vec<(PathBuf, Vec<u8>)> = [&map, &level, &prt, &bsp, &e_prt]
+        .iter()
+        .map(|p| (p.to_path_buf(), std::fs::read(p).expect("read input")))
+        .collect();
+    for args in &cases {
+        let o = run(args);
+        let err = stderr(&o);
+        assert_eq!(code(&o), 2, "{args:?} must be refused: {err}");
+        assert!(err.contains("would replace that file"), "{args:?}: {err}");
+        for (p, bytes) in &before {
+            assert_eq!(&std::fs::read(p).expect("still there"), bytes, "{args:?} changed {}", p.display());
+        }
+        assert!(!png.exists());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -80,6 +80,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let source = Source::read(&args.input)?;
     let prt_path = with_extension(&out, "prt");
     let pts_path = with_extension(&out, "pts");
+    output::check_apart(&[&args.input], &[&out, &prt_path, &pts_path])?;
     let opts = CompileOptions {
         threads: args.threads,
         allow_leak: args.allow_leak,

@@ -196,6 +196,9 @@ const BEST: Variant = Variant::ProbeFirstTarget;
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    if let Some(out) = &args.output {
+        crate::output::check_apart(&[Path::new(&args.input)], &[out])?;
+    }
     let checked = check(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;

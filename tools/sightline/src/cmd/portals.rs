@@ -80,6 +80,8 @@ pub struct Report {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = &args.input;
+    let output = args.output.clone().unwrap_or_else(|| path.with_extension("prt"));
+    crate::output::check_apart(&[path], &[&output])?;
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let file = bsp::read(&bytes).with_context(|| format!("{}: invalid BSP", path.display()))?;
     let t1 = Instant::now();
@@ -87,7 +89,6 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let built = bsp_portals::build(&file, opts)
         .with_context(|| format!("{}: cannot rebuild portals from its tree", path.display()))?;
     let build_seconds = t1.elapsed().as_secs_f64();
-    let output = args.output.clone().unwrap_or_else(|| path.with_extension("prt"));
     sightline_job::atomic::write_file_atomic(&output, sightline_formats::prt::write(&built.prt).as_bytes())
         .with_context(|| format!("cannot write {}", output.display()))?;
     let report = Report {

@@ -7,7 +7,7 @@
 //! allowed), so a leaking map can be drawn with the leak path its compile found (`--leak` without
 //! a file). Pictures of a `.map` have no PVS (everything visible).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use glam::DVec3;
@@ -130,6 +130,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if modes.iter().filter(|&&m| m).count() != 1 {
         bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
     }
+    let leak_file = args.leak.as_deref().filter(|l| !l.is_empty()).map(Path::new);
+    let inputs: Vec<&Path> =
+        [Some(args.input.as_path()), args.prt.as_deref(), leak_file].into_iter().flatten().collect();
+    crate::output::check_apart(&inputs, &[&args.output])?;
     let (level, compiled_leak) = load_any(&args.input)?;
     // Errors about the level name its file (the libraries only see the level).
     let file = || args.input.display().to_string();
