@@ -67,8 +67,16 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_file_with(path, bytes, Durability::Flushed)
 }
 
-/// [`write_file_atomic`] with the given [`Durability`].
+/// [`write_file_atomic`] with the given [`Durability`]. What `path` points at is what gets
+/// written ([`Target::of`]): a symlink's file is replaced and the link kept; a character device
+/// (`/dev/null`, a terminal) is written directly; any other special file (a FIFO, a socket, a
+/// block device) is refused.
 pub fn write_file_with(path: &Path, bytes: &[u8], durability: Durability) -> io::Result<()> {
+    let real = match Target::of(path)? {
+        Target::File(real) => real,
+        Target::Device => return OpenOptions::new().write(true).open(path)?.write_all(bytes),
+    };
+    let path = real.as_path();
     let (dir, name) = dir_and_name(path)?;
     let (tmp, mut file) = create_temporary(dir, name)?;
     let result = (|| {
@@ -98,6 +106,11 @@ pub fn write_file_with(path: &Path, bytes: &[u8], durability: Durability) -> io:
 /// file a write would and removes it at once. Commands that work long before writing call it first,
 /// so a bad output path fails at once instead of after the work.
 pub fn check_writable(path: &Path) -> io::Result<()> {
+    let real = match Target::of(path)? {
+        Target::Device => return Ok(()),
+        Target::File(real) => real,
+    };
+    let path = real.as_path();
     let (dir, name) = dir_and_name(path)?;
     match fs::metadata(dir) {
         Ok(meta) if meta.is_dir() => {}
@@ -118,6 +131,53 @@ pub fn check_writable(path: &Path) -> io::Result<()> {
     let (tmp, file) = create_temporary(dir, name)?;
     drop(file);
     fs::remove_file(&tmp)
+}
+
+/// What writing to a path writes to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Target {
+    /// A regular file (existing or not) at this path: the given one, or the file its symlinks
+    /// lead to, so the link is kept and its file replaced.
+    File(PathBuf),
+    /// A character device (`/dev/null`, a terminal): written directly, never replaced.
+    Device,
+}
+
+impl Target {
+    /// Where writing `path` goes. Refused (`InvalidInput`): a FIFO, a socket, a block device, and
+    /// a symlink whose file cannot be found (a dangling or looping link).
+    pub fn of(path: &Path) -> io::Result<Self> {
+        let link = match fs::symlink_metadata(path) {
+            Ok(m) => m.file_type().is_symlink(),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Self::File(path.to_path_buf())),
+            Err(e) => return Err(e),
+        };
+        let meta = match fs::metadata(path) {
+            Ok(m) => m,
+            Err(e) if link => {
+                let msg = format!("{} is a symlink to a file that cannot be reached ({e})", path.display());
+                return Err(io::Error::new(io::ErrorKind::InvalidInput, msg));
+            }
+            Err(e) => return Err(e),
+        };
+        let kind = meta.file_type();
+        if kind.is_file() || kind.is_dir() {
+            // A folder is refused by the rename (and by `check_writable`) with its own message.
+            return Ok(Self::File(if link { fs::canonicalize(path)? } else { path.to_path_buf() }));
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            if kind.is_char_device() {
+                return Ok(Self::Device);
+            }
+        }
+        let msg = format!(
+            "{} is not a regular file (a FIFO, socket or block device): refusing to write to it",
+            path.display()
+        );
+        Err(io::Error::new(io::ErrorKind::InvalidInput, msg))
+    }
 }
 
 /// Creates a fresh temporary file for `name` in `dir`; never opens an existing file.
@@ -243,5 +303,45 @@ mod tests {
         assert_eq!(fs::read(&path).unwrap(), b"newer");
         assert_eq!(fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o640);
         fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_keeps_pointing_at_its_file_which_gets_the_bytes() {
+        let dir = temp_dir("symlink");
+        let real = dir.join("real.bsp");
+        fs::write(&real, b"old").unwrap();
+        let link = dir.join("link.bsp");
+        let _ = fs::remove_file(&link);
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_file_atomic(&link, b"new").unwrap();
+        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link is kept");
+        assert_eq!(fs::read(&real).unwrap(), b"new", "its file got the bytes");
+        let dangling = dir.join("dangling.bsp");
+        let _ = fs::remove_file(&dangling);
+        std::os::unix::fs::symlink(dir.join("nowhere"), &dangling).unwrap();
+        assert_eq!(write_file_atomic(&dangling, b"x").unwrap_err().kind(), io::ErrorKind::InvalidInput);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_device_is_written_directly_and_a_fifo_refused() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        if fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            write_file_atomic(null, b"discarded").unwrap();
+            check_writable(null).unwrap();
+            assert!(fs::metadata(null).unwrap().file_type().is_char_device(), "/dev/null stays a device");
+        }
+        let dir = temp_dir("fifo");
+        let fifo = dir.join("pipe");
+        let _ = fs::remove_file(&fifo);
+        if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+            let e = write_file_atomic(&fifo, b"x").unwrap_err();
+            assert_eq!(e.kind(), io::ErrorKind::InvalidInput, "{e}");
+            assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the FIFO is left alone");
+        }
+        let _ = fs::remove_dir_all(&dir);
     }
 }
