@@ -147,11 +147,9 @@ impl Target {
     /// Where writing `path` goes. Refused (`InvalidInput`): a FIFO, a socket, a block device, and
     /// a symlink whose file cannot be found (a dangling or looping link).
     pub fn of(path: &Path) -> io::Result<Self> {
-        let link = match fs::symlink_metadata(path) {
-            Ok(m) => m.file_type().is_symlink(),
-            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Self::File(path.to_path_buf())),
-            Err(e) => return Err(e),
-        };
+        // Nothing there (or no folder to hold it): a new file, whose write reports the folder.
+        let Ok(first) = fs::symlink_metadata(path) else { return Ok(Self::File(path.to_path_buf())) };
+        let link = first.file_type().is_symlink();
         let meta = match fs::metadata(path) {
             Ok(m) => m,
             Err(e) if link => {
