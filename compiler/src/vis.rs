@@ -94,8 +94,8 @@ use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
 use schedule::flow_all;
 
 /// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
-/// per finished portal (from worker threads), and a note when clusters are merged to fit the
-/// limits; [`VisOptions::cancel`] stops the run at its next batch boundary.
+/// per finished portal (from worker threads), a note when clusters are merged to fit the limits
+/// and a warning, once done, that the merged PVS is looser; [`VisOptions::cancel`] stops the run at its next batch boundary.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     if opts.level > 4 {
         return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
@@ -131,6 +131,15 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     let mut result = std::panic::catch_unwind(AssertUnwindSafe(compute)).map_err(panic_error)??;
     if let Some(c) = coarse {
         result = coarsen::expand(result, prt, &c.new_id);
+        progress.warn(&format!(
+            "vis did not fit its memory or work limit: merged {} clusters into {} ({} of {} portals left, estimates {} and {:.1e} portal tests); the PVS is looser",
+            c.stats.clusters_before,
+            c.stats.clusters_after,
+            c.stats.portals_after,
+            c.stats.portals_before,
+            crate::memory::format_size(c.stats.estimate),
+            c.stats.work as f64
+        ));
         result.stats.coarsened = Some(c.stats);
     }
     result.stats.threads = opts.threads;

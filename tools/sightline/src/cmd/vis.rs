@@ -14,7 +14,7 @@ use anyhow::bail;
 
 use sightline_compiler::bsp_portals::BspPortalOptions;
 use sightline_compiler::dropin::{self, DropInError, DropInOptions, Report};
-use sightline_compiler::vis::{VisError, VisStats};
+use sightline_compiler::vis::VisError;
 use sightline_formats::texture::Ambient;
 use sightline_job::progress::Progress;
 
@@ -215,70 +215,23 @@ fn check_flags(args: &Args, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `work` with progress bars (hidden when `quiet` or without a terminal; notes and warnings
-/// said as they come), and turns the library's errors into what the user reads: a stop by Ctrl-C
-/// says how to resume. A vis merged to fit its limits says so.
+/// Runs `work` with progress bars (hidden when `quiet` or without a terminal; notes and warnings,
+/// such as a vis merged to fit its limits, said as they come), and turns the library's errors
+/// into what the user reads: a stop by Ctrl-C says how to resume.
 fn with_progress<T>(
     quiet: bool,
     opts: &DropInOptions,
     work: impl FnOnce(&dyn Progress) -> Result<T, DropInError>,
-) -> anyhow::Result<T>
-where
-    T: HasStats,
-{
+) -> anyhow::Result<T> {
     // Bars are updated every 32 portals (and at the end): an update per portal cost a third of
     // the flow time on small maps. Hidden bars are not updated at all.
     let bars = Bars::batched(quiet, 32);
-    match work(&bars) {
-        Ok(r) => {
-            for s in r.stats() {
-                warn_coarsened(s);
-            }
-            Ok(r)
+    work(&bars).map_err(|e| match e.vis() {
+        Some(&VisError::Interrupted { done, total }) => {
+            anyhow::anyhow!(interrupted(done, total, opts.vis.state.is_some()))
         }
-        Err(e) => match e.vis() {
-            Some(&VisError::Interrupted { done, total }) => {
-                bail!(interrupted(done, total, opts.vis.state.is_some()))
-            }
-            _ => Err(e.into()),
-        },
-    }
-}
-
-/// The vis statistics in a report, for what the command says after the run.
-trait HasStats {
-    fn stats(&self) -> Vec<&VisStats>;
-}
-
-impl HasStats for Report {
-    fn stats(&self) -> Vec<&VisStats> {
-        match self {
-            Report::Quake(r) => vec![&r.vis],
-            Report::Quake2(r) => r.vis.iter().collect(),
-            Report::Quake3(r) => vec![&r.vis],
-        }
-    }
-}
-
-impl HasStats for dropin::PackReport {
-    fn stats(&self) -> Vec<&VisStats> {
-        Vec::new()
-    }
-}
-
-/// Says that a vis was merged into coarser clusters to fit its limits (its PVS is looser).
-fn warn_coarsened(s: &VisStats) {
-    if let Some(c) = &s.coarsened {
-        eprintln!(
-            "warning: vis did not fit its memory or work limit: merged {} clusters into {} ({} of {} portals left, estimates {} and {:.1e} portal tests); the PVS is looser",
-            c.clusters_before,
-            c.clusters_after,
-            c.portals_after,
-            c.portals_before,
-            sightline_compiler::memory::format_size(c.estimate),
-            c.work as f64
-        );
-    }
+        _ => e.into(),
+    })
 }
 
 #[cfg(test)]
