@@ -222,6 +222,11 @@ pub struct Level {
     pub gvs_cells: Vec<GvsCell>,
     /// Face indices listed by GVS cells.
     pub gvs_faces: Vec<u32>,
+    /// The portal file written with this level, as [`crate::hash::fnv1a`] of its bytes: the
+    /// compiler writes the level and its `.prt` together, and this tells whether a `.prt` beside a
+    /// level is the one that belongs to it. `None` when the level was written without one (a
+    /// leaking map, a level converted from a BSP, levels from before this field).
+    pub portal_file: Option<u64>,
 }
 
 /// A box view cell with the faces guided visibility sampling found visible from it.

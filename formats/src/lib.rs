@@ -17,6 +17,7 @@ pub mod bsp;
 mod decimal;
 pub mod entities;
 pub mod geom;
+pub mod hash;
 pub mod kind;
 mod le;
 pub mod level;

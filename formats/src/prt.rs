@@ -345,6 +345,12 @@ pub fn read_bytes(bytes: &[u8], file: &str) -> Result<PortalFile, PrtError> {
     read(&String::from_utf8_lossy(bytes), file)
 }
 
+/// What identifies a portal file's bytes (FNV-1a 64, [`crate::hash`]): a level records the
+/// fingerprint of the portal file written with it ([`crate::level::Level::portal_file`]).
+pub fn fingerprint(bytes: &[u8]) -> u64 {
+    crate::hash::fnv1a(bytes, crate::hash::FNV_OFFSET)
+}
+
 /// Write a portal file in its own variant; floats in shortest round-trip form.
 pub fn write(prt: &PortalFile) -> String {
     let mut s = String::with_capacity(64 + prt.portals.len() * 80);

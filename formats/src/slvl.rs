@@ -75,11 +75,13 @@ pub enum LumpKind {
     FaceDraw = 16,
     /// [`Level::texture_sizes`]: 8-byte records (optional: absent in older files).
     TextureSizes = 17,
+    /// [`Level::portal_file`]: one `u64`, or empty for `None` (optional: absent in older files).
+    PortalFile = 18,
 }
 
 impl LumpKind {
     /// Every kind, in the order [`write()`] stores them.
-    pub const ALL: [LumpKind; 17] = [
+    pub const ALL: [LumpKind; 18] = [
         Self::Entities,
         Self::Textures,
         Self::Planes,
@@ -97,6 +99,7 @@ impl LumpKind {
         Self::GvsFaces,
         Self::FaceDraw,
         Self::TextureSizes,
+        Self::PortalFile,
     ];
 
     /// The kind with this code, if this version knows it.
@@ -129,6 +132,7 @@ impl LumpKind {
             Self::GvsFaces => "gvs_faces",
             Self::FaceDraw => "face_draw",
             Self::TextureSizes => "texture_sizes",
+            Self::PortalFile => "portal_file",
         }
     }
 
@@ -145,7 +149,7 @@ impl LumpKind {
             Self::Portals => 20,
             Self::GvsCells => 32,
             Self::FaceDraw => 44,
-            Self::TextureSizes => 8,
+            Self::TextureSizes | Self::PortalFile => 8,
         }
     }
 }
@@ -472,6 +476,7 @@ mod tests {
                 })
                 .collect();
             level.texture_sizes = (0..level.textures.len()).map(|_| [r.below(512) as u32, 64]).collect();
+            level.portal_file = Some(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         }
         level.leaf_faces = (0..r.below(30)).map(|_| r.below(nf) as u32).collect();
         let num_leaves = 2 + r.below(10);

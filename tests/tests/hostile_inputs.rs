@@ -59,6 +59,8 @@ static ALLOCATOR: Counting = Counting;
 
 #[path = "hostile_inputs/binary.rs"]
 mod binary;
+#[path = "hostile_inputs/paired.rs"]
+mod paired;
 
 /// Runs `f` and returns the peak number of bytes it held allocated at once on this thread.
 fn peak_during(f: impl FnOnce()) -> usize {

@@ -6,6 +6,7 @@ use std::sync::{Condvar, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
 use sightline_formats::bits;
+use sightline_formats::hash::{FNV_OFFSET, fnv1a};
 use sightline_formats::prt::PortalFile;
 use sightline_job::progress::{Phase, Progress, phase};
 
@@ -20,9 +21,9 @@ use super::{flow, graph, parallel, seeds, state, symmetry};
 /// Hash of the input and of what changes flow rows: the options and the run's `batch` size.
 pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u64 {
     let text = sightline_formats::prt::write(prt);
-    let h = state::fnv1a(text.as_bytes(), state::FNV_OFFSET);
+    let h = fnv1a(text.as_bytes(), FNV_OFFSET);
     let batch = u8::try_from(batch).unwrap_or(u8::MAX);
-    state::fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
+    fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
 }
 
 /// Flow every portal in deterministic batches; returns the final portal rows.

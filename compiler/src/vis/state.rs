@@ -2,7 +2,7 @@
 //! redoing them.
 //!
 //! The file is bincode 2 (serde, fixed-width integers, little-endian) of [`State`], followed by a
-//! trailer of 8 bytes: [`fnv1a`] of everything before it, little-endian. It is written with
+//! trailer of 8 bytes: [`fnv1a`] (FNV-1a 64) of everything before it, little-endian. It is written with
 //! [`sightline_job::atomic::write_file_atomic`] (a crash leaves the previous checkpoint).
 //!
 //! What is stored is the *log* of the batch boundaries, not a snapshot of the matrices: for each
@@ -29,6 +29,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use sightline_formats::bits;
+use sightline_formats::hash::{FNV_OFFSET, fnv1a};
 use sightline_job::atomic::write_file_atomic;
 
 use super::error::VisError;
@@ -185,19 +186,6 @@ pub fn bytes_bound(portals: u128, words: u128, clusters: u128) -> u128 {
     let header = 8 * 8 + 5 * 8 + TRAILER as u128;
     2 * (portals * per_portal + 8 * clusters * clusters + header)
 }
-
-/// FNV-1a, 64 bits: a stable hash for input identity and the checksum (not for security). Any
-/// single changed byte changes it (each step is a bijection of the hash).
-pub fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
-
-/// The starting value of [`fnv1a`].
-pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
 fn config() -> bincode::config::Configuration<bincode::config::LittleEndian, bincode::config::Fixint> {
     bincode::config::standard().with_fixed_int_encoding()

@@ -12,11 +12,14 @@
 //!   the new content also survives a power failure once the call returns. Outputs that took less
 //!   than [`Durability::FLUSH_AFTER`] to compute skip the flushes ([`Durability::for_work`]).
 //! - On any error the temporary file is removed: a failed write leaves neither a partial target
-//!   nor a stray temporary file.
+//!   nor a stray temporary file. A writer killed between write and rename leaves its temporary
+//!   file; the next process to write that name in that folder removes it (on Linux).
+//! - Files that belong together are written with [`write_files_with`]: all or none replaced.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
@@ -72,33 +75,114 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// (`/dev/null`, a terminal) is written directly; any other special file (a FIFO, a socket, a
 /// block device) is refused.
 pub fn write_file_with(path: &Path, bytes: &[u8], durability: Durability) -> io::Result<()> {
+    write_files_with(&[(path, bytes)], durability).map_err(|e| e.source)
+}
+
+/// A write of [`write_files_with`] that failed, with the file it failed on.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {}: {source}", path.display())]
+pub struct WriteError {
+    /// The file (as the caller named it) whose write failed.
+    pub path: PathBuf,
+    /// What failed.
+    #[source]
+    pub source: io::Error,
+}
+
+/// Writes files that belong together (a level and its portal file) so that none is replaced
+/// unless all could be written: every file is first written in full to its temporary file (and
+/// flushed, with [`Durability::Flushed`]), and only then are they renamed over their targets, in
+/// the order given. A failure while writing (no space, a folder in the way, a refused target)
+/// removes every temporary file and replaces nothing. The renames follow one another at once, so
+/// only a crash in those microseconds leaves an earlier file new and a later one old: put last the
+/// file that records which others belong to it. Targets follow [`Target::of`] as
+/// [`write_file_with`] does; a character device is written when its turn to be renamed comes.
+pub fn write_files_with(files: &[(&Path, &[u8])], durability: Durability) -> Result<(), WriteError> {
+    let mut staged: Vec<Staged> = Vec::with_capacity(files.len());
+    let mut failure = None;
+    for &(path, bytes) in files {
+        match stage(path, bytes, durability) {
+            Ok(s) => staged.push(s),
+            Err(source) => {
+                failure = Some(WriteError { path: path.to_path_buf(), source });
+                break;
+            }
+        }
+    }
+    if let Some(e) = failure {
+        discard(&staged);
+        return Err(e);
+    }
+    for (i, s) in staged.iter().enumerate() {
+        let done = match s {
+            Staged::File { tmp, real, .. } => fs::rename(tmp, real),
+            Staged::Device { path, bytes } => {
+                OpenOptions::new().write(true).open(path).and_then(|mut f| f.write_all(bytes))
+            }
+        };
+        if let Err(source) = done {
+            discard(&staged[i..]);
+            return Err(WriteError { path: files[i].0.to_path_buf(), source });
+        }
+    }
+    if durability == Durability::Flushed {
+        for s in &staged {
+            if let Staged::File { real, .. } = s {
+                sync_dir(dir_and_name(real).map_or(Path::new("."), |(d, _)| d));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A file of [`write_files_with`] ready to take its place.
+enum Staged<'a> {
+    /// Written in full to `tmp`, beside `real` (the file the target path leads to).
+    File { tmp: PathBuf, real: PathBuf },
+    /// A character device, written directly when its turn comes.
+    Device { path: &'a Path, bytes: &'a [u8] },
+}
+
+/// Writes `bytes` to a temporary file beside the file `path` leads to.
+fn stage<'a>(path: &'a Path, bytes: &'a [u8], durability: Durability) -> io::Result<Staged<'a>> {
     let real = match Target::of(path)? {
         Target::File(real) => real,
-        Target::Device => return OpenOptions::new().write(true).open(path)?.write_all(bytes),
+        Target::Device => return Ok(Staged::Device { path, bytes }),
     };
-    let path = real.as_path();
-    let (dir, name) = dir_and_name(path)?;
+    if fs::metadata(&real).is_ok_and(|m| m.is_dir()) {
+        // The rename would fail; find out before any file of the group is replaced.
+        let msg = format!("{} is a folder", real.display());
+        return Err(io::Error::new(io::ErrorKind::IsADirectory, msg));
+    }
+    let (dir, name) = dir_and_name(&real)?;
     let (tmp, mut file) = create_temporary(dir, name)?;
     let result = (|| {
         file.write_all(bytes)?;
-        if let Ok(meta) = fs::metadata(path) {
+        if let Ok(meta) = fs::metadata(&real) {
             file.set_permissions(meta.permissions())?;
         }
         if durability == Durability::Flushed {
             file.sync_all()?;
         }
-        drop(file);
-        fs::rename(&tmp, path)
+        Ok(())
     })();
-    if result.is_err() {
-        // Best effort: the temporary file is garbage whatever went wrong.
-        let _ = fs::remove_file(&tmp);
-        return result;
+    match result {
+        Ok(()) => Ok(Staged::File { tmp, real }),
+        Err(e) => {
+            // Best effort: the temporary file is garbage whatever went wrong.
+            let _ = fs::remove_file(&tmp);
+            Err(e)
+        }
     }
-    if durability == Durability::Flushed {
-        sync_dir(dir);
+}
+
+/// Removes the temporary files of writes that will not happen (best effort).
+fn discard(staged: &[Staged]) {
+    for s in staged {
+        if let Staged::File { tmp, .. } = s {
+            let _ = fs::remove_file(tmp);
+        }
     }
-    Ok(())
 }
 
 /// Checks, without writing `path`, that [`write_file_atomic`] could write it: `path` names a file
@@ -178,9 +262,23 @@ impl Target {
     }
 }
 
-/// Creates a fresh temporary file for `name` in `dir`; never opens an existing file.
+/// Creates a fresh temporary file for `name` in `dir`; never opens an existing file. The first
+/// time a process writes `name` in `dir`, it removes the temporary files of that name left by
+/// writers that died ([`sweep_stale`]).
 fn create_temporary(dir: &Path, name: &std::ffi::OsStr) -> io::Result<(PathBuf, File)> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
+    static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    let key = dir.join(name);
+    let first = SWEPT.lock().map(|mut swept| {
+        let first = !swept.contains(&key);
+        if first {
+            swept.push(key);
+        }
+        first
+    });
+    if first.unwrap_or(false) {
+        sweep_stale(dir, name);
+    }
     loop {
         let mut tmp_name = std::ffi::OsString::from(".");
         tmp_name.push(name);
@@ -192,6 +290,33 @@ fn create_temporary(dir: &Path, name: &std::ffi::OsStr) -> io::Result<(PathBuf, 
             // Left behind by a crashed process that had the same id: take the next name.
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
             Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Removes from `dir` the temporary files of `name` (`.<name>.<process id>.<counter>.tmp`, regular
+/// files only) whose process is no longer running: what a writer killed between its write and its
+/// rename left behind. Only on Linux, where `/proc` tells whether a process runs; a process id
+/// reused since counts as running and its file is left alone. Failures are ignored.
+fn sweep_stale(dir: &Path, name: &std::ffi::OsStr) {
+    if !cfg!(target_os = "linux") || !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Some(name) = name.to_str() else { return };
+    let Ok(entries) = fs::read_dir(dir) else { return };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|f| f.strip_prefix(&prefix)) else { continue };
+        let Some(rest) = rest.strip_suffix(".tmp") else { continue };
+        let Some((pid, counter)) = rest.split_once('.') else { continue };
+        let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+        if !digits(pid) || !digits(counter) || pid == std::process::id().to_string() {
+            continue;
+        }
+        let regular = entry.file_type().is_ok_and(|t| t.is_file());
+        if regular && !Path::new("/proc").join(pid).exists() {
+            let _ = fs::remove_file(entry.path());
         }
     }
 }
@@ -235,6 +360,48 @@ mod tests {
         assert!(write_file_atomic(&dir.join("missing/x"), b"x").is_err());
         assert!(write_file_atomic(&dir, b"x").is_err(), "a folder is not replaced by a file");
         assert_eq!(names(&dir), [std::ffi::OsString::from("level.slvl")], "no temporary left");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn files_that_belong_together_are_replaced_all_or_none() {
+        let dir = temp_dir("group");
+        let (level, prt) = (dir.join("k.slvl"), dir.join("k.prt"));
+        write_files_with(&[(&prt, b"old prt"), (&level, b"old level")], Durability::Renamed).unwrap();
+        // A folder in the way of the second file: neither is replaced, no temporary is left.
+        fs::create_dir(dir.join("k.pts")).unwrap();
+        let e = write_files_with(
+            &[(&prt, b"new prt"), (&level, b"new level"), (&dir.join("k.pts"), b"pts")],
+            Durability::Flushed,
+        )
+        .unwrap_err();
+        assert_eq!(e.path, dir.join("k.pts"), "{e}");
+        assert!(e.to_string().contains("k.pts"), "{e}");
+        assert_eq!(fs::read(&prt).unwrap(), b"old prt");
+        assert_eq!(fs::read(&level).unwrap(), b"old level");
+        let expected: Vec<std::ffi::OsString> = ["k.prt", "k.pts", "k.slvl"].map(Into::into).to_vec();
+        assert_eq!(names(&dir), expected);
+        write_files_with(&[(&prt, b"new prt"), (&level, b"new level")], Durability::Flushed).unwrap();
+        assert_eq!(fs::read(&prt).unwrap(), b"new prt");
+        assert_eq!(fs::read(&level).unwrap(), b"new level");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn temporaries_of_dead_writers_are_swept_and_live_ones_kept() {
+        let dir = temp_dir("sweep");
+        // No process has an id this large (Linux ids stop at 2^22); the parent runs.
+        let dead = dir.join(".map.bsp.999999999.3.tmp");
+        let live = dir.join(format!(".map.bsp.{}.0.tmp", std::os::unix::process::parent_id()));
+        let other = dir.join(".other.bsp.999999999.0.tmp");
+        let not_ours = dir.join(".map.bsp.999999999.tmp");
+        for p in [&dead, &live, &other, &not_ours] {
+            fs::write(p, b"partial").unwrap();
+        }
+        write_file_atomic(&dir.join("map.bsp"), b"whole").unwrap();
+        assert!(!dead.exists(), "a dead writer's temporary of this name is removed");
+        assert!(live.exists() && other.exists() && not_ours.exists(), "{:?}", names(&dir));
         fs::remove_dir_all(&dir).unwrap();
     }
 

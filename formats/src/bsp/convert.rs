@@ -104,6 +104,7 @@ pub fn to_level(bsp: &Bsp) -> Level {
         pvs_data,
         gvs_cells: Vec::new(),
         gvs_faces: Vec::new(),
+        portal_file: None,
     }
 }
 

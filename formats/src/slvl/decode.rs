@@ -146,6 +146,13 @@ pub(super) fn lump_into(level: &mut Level, kind: LumpKind, data: &[u8]) -> Resul
         LumpKind::TextureSizes => {
             level.texture_sizes = records(kind, data)?.map(|(_, mut r)| [r.u32(), r.u32()]).collect();
         }
+        LumpKind::PortalFile => {
+            level.portal_file = match data.len() {
+                0 => None,
+                8 => Some(Rec::new(data).u64()),
+                n => return Err(invalid(kind, 0, 0, format!("{n} bytes, expected 0 or 8"))),
+            };
+        }
     }
     Ok(())
 }

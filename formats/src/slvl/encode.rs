@@ -126,6 +126,7 @@ pub(super) fn lump_bytes(level: &Level, kind: LumpKind) -> Vec<u8> {
             }
         }
         LumpKind::TextureSizes => level.texture_sizes.iter().flatten().for_each(|&v| p.u32(v)),
+        LumpKind::PortalFile => level.portal_file.into_iter().for_each(|h| p.u64(h)),
     }
     p.0
 }

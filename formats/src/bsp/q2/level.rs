@@ -279,5 +279,6 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         face_draw,
         // Quake 2 textures are external `.wal` files: the BSP does not size them.
         texture_sizes: Vec::new(),
+        portal_file: None,
     })
 }

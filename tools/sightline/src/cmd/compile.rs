@@ -2,7 +2,9 @@
 //! (`.prt`) and, unless `--no-vis`, the PVS.
 //!
 //! Exit codes: 0 compiled, 1 the map leaks (`<out>.pts` holds the path from the entity to the
-//! void), 2 an error. Files are written atomically (temporary file, then rename); an output folder
+//! void), 2 an error. Files are written atomically (temporary file, then rename), the portal file
+//! (or pointfile) and the level together: all or none, the level last, recording which portal file
+//! is its own. A sealed compile removes a pointfile an earlier leak left. An output folder
 //! that is missing or takes no files is an error before anything is compiled.
 
 use std::path::{Path, PathBuf};
@@ -118,15 +120,18 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         Err(e) => return Err(e.into()),
     };
     sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;
-    let bytes =
+    let level =
         sightline_formats::slvl::write(&compiled.level, &sightline_formats::slvl::WriteOptions::default());
-    output::write(&out, &bytes, t0)?;
+    // The portal file (or the pointfile of a leak) first and the level last, all or none: the
+    // level records which portal file belongs to it.
     let wrote_prt = compiled.leak.is_none();
+    let beside = match &compiled.leak {
+        None => (prt_path.as_path(), sightline_formats::prt::write(&compiled.prt).into_bytes()),
+        Some(leak) => (pts_path.as_path(), leak.pointfile().into_bytes()),
+    };
+    output::write_together(&[(beside.0, &beside.1), (&out, &level)], t0)?;
     if wrote_prt {
-        output::write(&prt_path, sightline_formats::prt::write(&compiled.prt).as_bytes(), t0)?;
-    }
-    if let Some(leak) = &compiled.leak {
-        output::write(&pts_path, leak.pointfile().as_bytes(), t0)?;
+        output::remove_stale(&pts_path, "pointfile of an earlier leak");
     }
     report(args, &compiled, &out, wrote_prt.then_some(prt_path.as_path()), &pts_path);
     Ok(if compiled.leak.is_some() { Outcome::Finding } else { Outcome::Clean })

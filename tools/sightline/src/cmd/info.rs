@@ -191,7 +191,44 @@ pub enum Details {
         pvs: Option<PvsSummary>,
         /// World model bounds; `null` without models.
         bounds: Option<Bounds>,
+        /// Whether the `.prt` beside the level is the one written with it.
+        portal_file: PortalFileStatus,
     },
+}
+
+/// How the `.prt` beside a level relates to it ([`sightline_formats::level::Level::portal_file`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PortalFileStatus {
+    /// The level records no portal file (a leaking map, or a level from before the record).
+    NotRecorded,
+    /// The level records one, and no `.prt` is beside it.
+    Missing,
+    /// The `.prt` beside it is the one written with it.
+    Matches,
+    /// The `.prt` beside it is another one (a later or interrupted compile, or another tool's).
+    Differs,
+}
+
+impl PortalFileStatus {
+    /// The status of the `.prt` beside the level at `path` that records `recorded`.
+    fn of(path: &Path, recorded: Option<u64>) -> Self {
+        let Some(recorded) = recorded else { return Self::NotRecorded };
+        match std::fs::read(path.with_extension("prt")) {
+            Err(_) => Self::Missing,
+            Ok(bytes) if prt::fingerprint(&bytes) == recorded => Self::Matches,
+            Ok(_) => Self::Differs,
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Self::NotRecorded => "none recorded",
+            Self::Missing => "recorded, but no .prt beside the level",
+            Self::Matches => "the .prt beside the level belongs to it",
+            Self::Differs => "the .prt beside the level is NOT the one written with it (compile again)",
+        }
+    }
 }
 
 /// Read `path` and build its report.
@@ -220,7 +257,7 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
         }
         FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
             .with_context(|| format!("{name}: bad PVS row"))?,
-        FileKind::Slvl => slvl_details(&bytes).with_context(|| format!("{name}: invalid level"))?,
+        FileKind::Slvl => slvl_details(&bytes, path).with_context(|| format!("{name}: invalid level"))?,
     };
     Ok(InfoReport { file: name, details })
 }
@@ -323,7 +360,7 @@ fn q2_details(bytes: &[u8]) -> anyhow::Result<Details> {
     })
 }
 
-fn slvl_details(bytes: &[u8]) -> anyhow::Result<Details> {
+fn slvl_details(bytes: &[u8], path: &Path) -> anyhow::Result<Details> {
     let level = slvl::read(bytes)?;
     let vis_leaves = level.vis_leaves();
     Ok(Details::Slvl {
@@ -340,6 +377,7 @@ fn slvl_details(bytes: &[u8]) -> anyhow::Result<Details> {
             .pvs_stats()?
             .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
         bounds: level.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+        portal_file: PortalFileStatus::of(path, level.portal_file),
     })
 }
 
@@ -450,6 +488,7 @@ impl InfoReport {
                 has_vis,
                 pvs: p,
                 bounds: b,
+                portal_file,
             } => {
                 line("kind", "slvl".into());
                 line("leaves", format!("{leaves} ({vis_leaves} vis leaves, {clusters} clusters)"));
@@ -460,6 +499,7 @@ impl InfoReport {
                 line("visdata", format!("{visdata_bytes} bytes{}", if *has_vis { "" } else { " (no vis)" }));
                 line("pvs", pvs(p));
                 line("bounds", bounds(b));
+                line("portal file", portal_file.describe().into());
             }
         }
         out
