@@ -61,6 +61,8 @@ static ALLOCATOR: Counting = Counting;
 mod binary;
 #[path = "hostile_inputs/paired.rs"]
 mod paired;
+#[path = "hostile_inputs/signals.rs"]
+mod signals;
 
 /// Runs `f` and returns the peak number of bytes it held allocated at once on this thread.
 fn peak_during(f: impl FnOnce()) -> usize {

@@ -55,6 +55,11 @@ pub fn main() -> i32 {
         }
     };
     let cli = Cli::parse_from(args);
+    // Commands that stop on request take Ctrl-C and SIGTERM from the start (the reading of a large
+    // input included), not only once their long work begins.
+    if matches!(cli.command, Command::Compile(_) | Command::Vis(_) | Command::Validate(_) | Command::Gvs(_)) {
+        crate::interrupt::ctrl_c_flag();
+    }
     let result = match &cli.command {
         Command::Compile(a) => cmd::compile::run(a),
         Command::Vis(a) => cmd::vis::run(a),

@@ -1,5 +1,6 @@
-//! Ctrl-C: the first press asks the running work to stop at its next safe point (vis saves its
-//! state there), the second ends the process at once (exit 130).
+//! Ctrl-C (SIGINT) and SIGTERM (what `kill`, a batch scheduler or a container runtime sends): the
+//! first asks the running work to stop at its next safe point (vis saves its state there, compile
+//! writes nothing), a second ends the process at once (exit 130 for SIGINT, 143 for SIGTERM).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -27,20 +28,23 @@ pub(crate) fn cancel() -> sightline_job::cancel::Cancel {
     sightline_job::cancel::Cancel::from_flag(ctrl_c_flag())
 }
 
-/// A flag set by Ctrl-C, so the work stops at its next safe point (vis at the next batch
-/// boundary, saving its state). A second
-/// Ctrl-C, once the flag is set, ends the process at once (exit 130). The handler only sets the
-/// flag (no thread waits for the signal); progress reports say that the stop is under way
-/// ([`announce_stop`]). If a handler cannot be installed, Ctrl-C keeps its default effect (the
-/// flag then never turns on).
+/// A flag set by Ctrl-C or SIGTERM, so the work stops at its next safe point (vis at the next
+/// batch boundary, saving its state). A second signal, once the flag is set, ends the process at
+/// once (exit 128 + the signal's number: 130, 143). The handler only sets the flag (no thread
+/// waits for the signal); progress reports say that the stop is under way ([`announce_stop`]). If
+/// a handler cannot be installed, that signal keeps its default effect.
 pub(crate) fn ctrl_c_flag() -> Arc<AtomicBool> {
     CTRL_C
         .get_or_init(|| {
             let flag = Arc::new(AtomicBool::new(false));
-            use signal_hook::consts::SIGINT;
-            // Handlers run in the order registered: the exit looks at the flag before it is set.
-            if signal_hook::flag::register_conditional_shutdown(SIGINT, 130, flag.clone()).is_ok() {
-                let _ = signal_hook::flag::register(SIGINT, flag.clone());
+            use signal_hook::consts::{SIGINT, SIGTERM};
+            for signal in [SIGINT, SIGTERM] {
+                // Handlers run in the order registered: the exit looks at the flag before it is set.
+                if signal_hook::flag::register_conditional_shutdown(signal, 128 + signal, flag.clone())
+                    .is_ok()
+                {
+                    let _ = signal_hook::flag::register(signal, flag.clone());
+                }
             }
             flag
         })
@@ -52,6 +56,6 @@ pub(crate) fn ctrl_c_flag() -> Arc<AtomicBool> {
 pub(crate) fn announce_stop() {
     static SAID: AtomicBool = AtomicBool::new(false);
     if CTRL_C.get().is_some_and(|f| f.load(Ordering::Relaxed)) && !SAID.swap(true, Ordering::Relaxed) {
-        eprintln!("\ninterrupt: stopping at the next batch of work (Ctrl-C again to quit now)");
+        eprintln!("\ninterrupt: stopping at the next batch of work (Ctrl-C or SIGTERM again to quit now)");
     }
 }
