@@ -10,6 +10,10 @@ use sightline_job::progress::{Progress, phase};
 use crate::brush::Brush;
 use crate::error::CompileError;
 use crate::options::CompileOptions;
+use crate::phase_memory::{
+    BSP_PER_SIDE, CSG_PER_SIDE, EMIT_PER_FACE, EMIT_PER_PORTAL, MESH_PER_TRIANGLE, OUTSIDE_PER_ENTRY,
+    PORTALS_PER_ENTRY, PhaseMemory, per,
+};
 use crate::prepared::OUTSIDE_MARGIN;
 use crate::report::{Compiled, LeakReport, POINTFILE_STEP, PhaseTime};
 use crate::source::Source;
@@ -66,15 +70,27 @@ fn compile_here(
 ) -> Result<Compiled, CompileError> {
     let cancel = &opts.cancel;
     let mut clock = Clock::new();
+    let memory = PhaseMemory::new(source.file(), opts.max_memory, rayon::current_num_threads());
+    // Brush sides of a map (what CSG and the tree grow with); 0 for a mesh.
+    let sides = match source {
+        Source::Map { map, .. } => map.brushes().map(|b| b.sides.len()).sum(),
+        Source::Mesh { .. } => 0,
+    };
     // A mesh comes with its world tree prebuilt; a map builds its tree from brushes below.
     let (file, mut prep, mesh_tree) = match source {
-        Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress, cancel)?, None),
+        Source::Map { map, file } => {
+            memory.check("csg", per(CSG_PER_SIDE, sides), || format!("{sides} brush sides"))?;
+            (file.as_str(), load::load_map(map, file, progress, cancel)?, None)
+        }
         Source::Mesh { mesh, file } => {
+            let triangles = mesh.triangles.len();
+            memory.check("csg", per(MESH_PER_TRIANGLE, triangles), || format!("{triangles} triangles"))?;
             let (prep, tree) = mesh::prepare(mesh, file, progress)?;
             (file.as_str(), prep, Some(tree))
         }
     };
     clock.lap("csg", cancel)?;
+    memory.check("bsp", per(BSP_PER_SIDE, sides), || format!("{sides} brush sides"))?;
 
     let bsp_phase = phase(progress, "bsp", 1 + prep.submodels.len() as u64);
     let (mut tree, bounds, world_bounds, cover) = match mesh_tree {
@@ -109,6 +125,10 @@ fn compile_here(
         .collect();
     drop(bsp_phase);
     clock.lap("bsp", cancel)?;
+    let entries = tree.nodes.len();
+    memory.check("portals", per(PORTALS_PER_ENTRY, entries), || {
+        format!("a tree of {entries} nodes and leaves")
+    })?;
 
     let graph = {
         let p = phase(progress, "portals", 1);
@@ -117,6 +137,9 @@ fn compile_here(
         graph
     };
     clock.lap("portals", cancel)?;
+    memory.check("outside", per(OUTSIDE_PER_ENTRY, entries), || {
+        format!("a tree of {entries} nodes and leaves")
+    })?;
 
     let outside_phase = phase(progress, "outside", 1);
     if let Some(cover) = &cover {
@@ -155,6 +178,9 @@ fn compile_here(
     }
     drop(outside_phase);
     clock.lap("outside", cancel)?;
+    let (faces, portal_count) = (prep.world_faces.len(), graph.portals.len());
+    let emit_needs = per(EMIT_PER_FACE, faces).saturating_add(per(EMIT_PER_PORTAL, portal_count));
+    memory.check("emit", emit_needs, || format!("{faces} faces and {portal_count} portals"))?;
 
     let emit_phase = phase(progress, "emit", 1);
     let collapsed = tree.has_detail().then(|| {

@@ -89,6 +89,27 @@ pub enum CompileError {
         /// The phase that was running (`csg`, `bsp`, `portals`, `outside`, `emit`).
         phase: &'static str,
     },
+    /// A phase's memory estimate does not fit what the process may still take
+    /// ([`crate::phase_memory`]).
+    #[error(
+        "{file}: {phase} would need about {need_text} for {what}: more than the {limit_text} {source_of_limit}",
+        need_text = crate::memory::format_size(*need),
+        limit_text = crate::memory::format_size(*limit)
+    )]
+    Memory {
+        /// Source file.
+        file: String,
+        /// The phase refused (`csg`, `bsp`, `portals`, `outside`, `emit`).
+        phase: &'static str,
+        /// Its estimate, in bytes.
+        need: u64,
+        /// The limit it exceeds, in bytes.
+        limit: u64,
+        /// Where the limit comes from.
+        source_of_limit: crate::memory::LimitSource,
+        /// What the estimate counts (`24,036 brush sides`).
+        what: String,
+    },
     /// Vis returned rows for another number of clusters than the level has.
     #[error("vis returned {got} clusters for {want}")]
     VisClusters {

@@ -21,6 +21,7 @@ pub mod memory;
 pub mod mesh;
 mod options;
 mod outside;
+pub mod phase_memory;
 pub mod phs;
 mod portals;
 mod prepared;

@@ -62,4 +62,11 @@ impl Source {
         let map = sightline_formats::map::parse_bytes(&bytes, &file)?;
         Ok(Source::Map { map, file })
     }
+
+    /// The file name kept for messages.
+    pub fn file(&self) -> &str {
+        match self {
+            Source::Map { file, .. } | Source::Mesh { file, .. } => file,
+        }
+    }
 }

@@ -103,7 +103,7 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     check(prt)?;
     // The thread count and the memory limit, each found once.
     let opts = &VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
-    let memory = crate::memory::limit(opts.max_memory);
+    let memory = crate::memory::limit(opts.max_memory, opts.threads);
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads.
     let single = VisOptions { threads: 1, ..opts.clone() };

@@ -59,6 +59,8 @@ static ALLOCATOR: Counting = Counting;
 
 #[path = "hostile_inputs/binary.rs"]
 mod binary;
+#[path = "hostile_inputs/memory.rs"]
+mod memory;
 #[path = "hostile_inputs/paired.rs"]
 mod paired;
 #[path = "hostile_inputs/signals.rs"]

@@ -34,7 +34,7 @@ pub struct VisOptions {
     /// by a Ctrl-C handler): with [`VisOptions::state`] the finished portals are saved first.
     pub cancel: Cancel,
     /// Refuse (with [`VisError::Memory`](super::VisError::Memory)) a run whose [`memory_estimate`](super::memory_estimate) is above this many
-    /// bytes; the memory the machine has available ([`crate::memory::available`]) is always a
+    /// bytes; the memory the process may still take ([`crate::memory::limit`]) is always a
     /// limit too.
     pub max_memory: Option<u64>,
     /// Refuse (with [`VisError::Work`](super::VisError::Work)) a run whose [`work_estimate`](super::work_estimate) is above this many portal

@@ -23,8 +23,9 @@ pub struct VisFlags {
     /// Stop after this many flow portals (after writing the state): for testing resumes.
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
-    /// Refuse a vis whose estimated memory is above this size (bytes, or with K, M, G, T: 512M,
-    /// 8G); the memory the machine has available is always a limit too.
+    /// Refuse a vis (and each compile phase) whose estimated memory is above this size (bytes, or
+    /// with K, M, G, T: 512M, 8G); what the process may still take (available memory, cgroup and
+    /// `ulimit -v` limits) is always a limit too.
     #[arg(long, value_name = "SIZE", value_parser = sightline_compiler::memory::parse_size)]
     pub max_memory: Option<u64>,
     /// Refuse a vis whose estimated work is above this many portal tests (a number: 2e11,
