@@ -114,6 +114,9 @@ uint32_t sl_world_num_clusters(const SlWorld *world);
 uint32_t sl_world_num_faces(const SlWorld *world);
 uint32_t sl_world_num_textures(const SlWorld *world);
 uint32_t sl_world_num_models(const SlWorld *world);
+/* 1 when the level carries a PVS; 0 when it has none (an unvised map: every cluster sees every
+ * other, PVS culling culls nothing; the load succeeds either way) or for a null world. */
+int sl_world_has_pvs(const SlWorld *world);
 /* Entity text (Quake .map syntax without brushes), owned by the world; NULL for a null world. */
 const char *sl_world_entities(const SlWorld *world);
 

@@ -10,20 +10,10 @@
 //! `SL_ERR_PANIC`. The crate uses only the runtime's public API.
 //!
 //! # Build and install (Linux)
-//! ```sh
-//! cargo build --release -p sightline-capi
-//! PREFIX=/usr/local VERSION=0.1.0
-//! install -Dm644 runtime/capi/include/sightline.h "$PREFIX/include/sightline.h"
-//! install -Dm755 target/release/libsightline_capi.so "$PREFIX/lib/libsightline.so.$VERSION"
-//! ln -sf "libsightline.so.$VERSION" "$PREFIX/lib/libsightline.so.0"   # the SONAME
-//! ln -sf libsightline.so.0 "$PREFIX/lib/libsightline.so"             # for -lsightline
-//! install -Dm644 target/release/libsightline_capi.a "$PREFIX/lib/libsightline.a"
-//! sed -e "s|@PREFIX@|$PREFIX|" -e "s|@VERSION@|$VERSION|" runtime/capi/sightline.pc.in \
-//!     > "$PREFIX/lib/pkgconfig/sightline.pc"
-//! cc app.c $(pkg-config --cflags --libs sightline)
-//! ```
-//! Static linking: `pkg-config --static --libs sightline` adds the system libraries Rust's
-//! standard library needs.
+//! `tools/install-capi.sh PREFIX` builds this crate in release and installs the header, the
+//! shared library as `libsightline.so.VERSION` with the links `libsightline.so.0` (the SONAME) and
+//! `libsightline.so`, the static library as `libsightline.a`, and `sightline.pc` (from
+//! `sightline.pc.in`); `docs/engine.md` shows the `cc` lines, shared and static.
 
 // Modules, one concern each; `status` and `handles` first, the entry points above them.
 // The modules with entry points allow `unsafe_code`: a C ABI takes raw pointers from C (read and

@@ -129,6 +129,18 @@ pub unsafe extern "C" fn sl_world_num_models(world: *const SlWorld) -> u32 {
     unsafe { world.as_ref() }.map_or(0, |w| w.world.draw().models().len() as u32)
 }
 
+/// 1 when the level carries a PVS, 0 when it has none (an unvised map: every cluster then sees
+/// every other, so PVS culling culls nothing) or for null. Check it after loading: the load itself
+/// succeeds either way.
+///
+/// # Safety
+/// `world` must be null or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sl_world_has_pvs(world: *const SlWorld) -> i32 {
+    // SAFETY: null or live per the contract.
+    unsafe { world.as_ref() }.map_or(0, |w| i32::from(w.world.has_vis()))
+}
+
 /// The level's entity text (Quake `.map` syntax without brushes), NUL-terminated, owned by the
 /// world (valid until [`sl_world_free`]); null for a null world.
 ///

@@ -5,6 +5,7 @@ mod brace_scan;
 mod bsp_roundtrip;
 mod bundled_expectations;
 mod cancel;
+mod capi_install;
 mod compile_cli;
 mod compile_maps;
 mod family_runtime;

@@ -96,6 +96,12 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
     // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
     let mut world = load::load_path(&args.input)?;
+    if !world.has_vis() {
+        eprintln!(
+            "warning: {}: the level has no PVS (not vised): every cluster sees every other, so PVS culling hides nothing (run `sightline vis` on it)",
+            args.input.display()
+        );
+    }
     if args.no_pvs_trees {
         world.drop_pvs_trees();
     }
