@@ -84,7 +84,7 @@ fn installed_library_links_by_pkg_config_shared_and_static() {
         assert_eq!(world.has_vis(), pvs == 1);
         let expected = format!("{} {} {pvs}\n", world.num_leaves(), world.num_clusters());
         for program in [&shared, &fixed] {
-            assert_eq!(run(&mut Command::new(program).arg(level)), expected, "{}", program.display());
+            assert_eq!(run(Command::new(program).arg(level)), expected, "{}", program.display());
         }
     }
     std::fs::remove_dir_all(&dir).expect("clean");
