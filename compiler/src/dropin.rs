@@ -27,6 +27,7 @@ use std::time::Instant;
 
 use sightline_formats::bsp::{BspError, Game};
 use sightline_job::atomic::{Durability, write_file_with};
+use sightline_job::input::{InputError, read_input};
 use sightline_job::progress::Progress;
 use thiserror::Error;
 
@@ -79,15 +80,10 @@ pub enum DropInError {
         /// Why.
         why: String,
     },
-    /// A file could not be read.
-    #[error("cannot read {}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: io::Error,
-    },
+    /// A file or folder could not be read ([`sightline_job::input::read_input`]: a regular file
+    /// only; the error names it).
+    #[error(transparent)]
+    Read(#[from] InputError),
     /// A compiled map is malformed or cannot take the visibility.
     #[error("{}", path.display())]
     Bsp {
@@ -176,29 +172,45 @@ pub fn run(
     progress: &dyn Progress,
     started: Instant,
 ) -> Result<Report, DropInError> {
-    match game_of(path) {
-        Some(Game::Quake3) => quake3::run(path, opts, progress, started).map(Report::Quake3),
-        Some(Game::Quake2) => quake2::run(path, opts, progress, started).map(Report::Quake2),
-        _ => quake::run(path, opts, progress, started).map(Report::Quake),
+    // Read once: the game is told by the first bytes of what the run then parses.
+    let bytes = read_input(path)?;
+    check_outputs(path, opts)?;
+    match Game::sniff(&bytes) {
+        Some(Game::Quake3) => quake3::run(path, bytes, opts, progress, started).map(Report::Quake3),
+        Some(Game::Quake2) => quake2::run(path, bytes, opts, progress, started).map(Report::Quake2),
+        _ => quake::run(path, bytes, opts, progress, started).map(Report::Quake),
     }
+}
+
+/// Refuses, before any work, the files the run at `path` would write (an external `.vis`, the
+/// `NAME.vis` of a portal file, the checkpoint) when one would replace an input (the compiled map
+/// or portal file, the portal file and `NAME.texinfo.json` beside a `.bsp`) or another of them,
+/// or cannot be written where it points ([`sightline_job::apart::check_outputs`]). A `.bsp`
+/// written back in place is rewritten on purpose: it counts as an input only.
+fn check_outputs(path: &Path, opts: &DropInOptions) -> Result<(), DropInError> {
+    let written = match &opts.external_vis {
+        Some(out) => Some(out.clone()),
+        None => (!quake::is_bsp(path)).then(|| path.with_extension("vis")),
+    };
+    let inputs = inputs_of(path);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let outputs: Vec<&Path> = written.iter().chain(&opts.vis.state).map(PathBuf::as_path).collect();
+    Ok(sightline_job::apart::check_outputs(&inputs, &outputs)?)
+}
+
+/// The files a vis of `path` may read: the file, and for a `.bsp` the portal files and the
+/// `NAME.texinfo.json` beside it.
+pub(crate) fn inputs_of(path: &Path) -> Vec<PathBuf> {
+    let mut inputs = vec![path.to_path_buf()];
+    if quake::is_bsp(path) {
+        inputs.extend(sightline_formats::prt::beside_bsp(path));
+        inputs.push(sightline_formats::texinfo_json::path_beside(path));
+    }
+    inputs
 }
 
 /// Vis of every `.bsp` in the folder `dir` into one external `.vis` pack at `out` (see [`folder`]).
 pub use folder::run as pack;
-
-/// The game of the file at `path` from its first 8 bytes, or `None` when it is shorter, cannot be
-/// read, or is no compiled map (a portal file); the readers report those properly later.
-pub fn game_of(path: &Path) -> Option<Game> {
-    use std::io::Read;
-    let mut head = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).ok()?;
-    Game::sniff(&head)
-}
-
-/// Reads the file at `path` whole.
-pub(crate) fn read(path: &Path) -> Result<Vec<u8>, DropInError> {
-    std::fs::read(path).map_err(|source| DropInError::Read { path: path.into(), source })
-}
 
 /// The portal file beside the compiled map at `path` ([`sightline_formats::prt::beside_bsp`]),
 /// read; `hint` ends the error when there is none (how the game's compiler writes one).
@@ -207,10 +219,11 @@ pub(crate) fn portals_beside(
     hint: &str,
 ) -> Result<(PathBuf, sightline_formats::prt::PortalFile), DropInError> {
     let tried = sightline_formats::prt::beside_bsp(path);
-    let Some(prt_path) = tried.iter().find(|p| p.is_file()) else {
+    // The first that exists: one that is not a regular file is refused by name, not passed over.
+    let Some(prt_path) = tried.iter().find(|p| p.exists()) else {
         return Err(DropInError::refused(path, format!("no portal file beside it (tried {tried:?}{hint})")));
     };
-    let bytes = read(prt_path)?;
+    let bytes = read_input(prt_path)?;
     let prt = sightline_formats::prt::read_bytes(&bytes, &prt_path.display().to_string())?;
     Ok((prt_path.clone(), prt))
 }

@@ -27,15 +27,9 @@ pub enum Source {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SourceError {
-    /// The `.map` could not be read.
-    #[error("reading {file}")]
-    Read {
-        /// The file.
-        file: String,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be read ([`sightline_job::input::read_input`]: a regular file only).
+    #[error(transparent)]
+    Read(#[from] sightline_job::input::InputError),
     /// The `.map` does not parse.
     #[error(transparent)]
     Map(#[from] sightline_formats::map::MapError),
@@ -54,11 +48,11 @@ impl Source {
     /// or two vertices are skipped; [`compile`](fn@crate::compile) reports their count as a warning.
     pub fn read(path: &std::path::Path) -> Result<Self, SourceError> {
         let file = path.display().to_string();
+        let bytes = sightline_job::input::read_input(path)?;
         if sightline_formats::FileKind::from_extension(path) == Some(sightline_formats::FileKind::Obj) {
-            let mesh = mesh::Mesh::from(&sightline_formats::obj::load(path)?);
+            let mesh = mesh::Mesh::from(&sightline_formats::obj::load_from_bytes(&bytes, &file)?);
             return Ok(Source::Mesh { mesh, file });
         }
-        let bytes = std::fs::read(path).map_err(|source| SourceError::Read { file: file.clone(), source })?;
         let map = sightline_formats::map::parse_bytes(&bytes, &file)?;
         Ok(Source::Map { map, file })
     }

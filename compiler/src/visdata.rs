@@ -27,7 +27,6 @@
 //! - A level stores one row per cluster, in cluster order, without sharing.
 
 use std::collections::HashMap;
-use std::io;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -41,6 +40,7 @@ use sightline_formats::texinfo_json::{self, TexinfoJson, TexinfoJsonError};
 use sightline_formats::texture::TextureKind;
 use sightline_formats::visfile::{self, VisFileError};
 use sightline_formats::vispatch::{VisPatchError, VisPatchRecord};
+use sightline_job::input::{InputError, read_input};
 use thiserror::Error;
 
 use crate::bsp_portals::{self, BspPortalOptions, BspPortalStats, BspPortalsError};
@@ -50,15 +50,9 @@ use crate::vis::VisResult;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum VisdataError {
-    /// A file could not be read.
-    #[error("cannot read {}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: io::Error,
-    },
+    /// A file could not be read ([`read_input`]: a regular file only; the error names it).
+    #[error(transparent)]
+    Read(#[from] InputError),
     /// The `.bsp` does not parse.
     #[error("{}: invalid BSP", path.display())]
     Bsp {
@@ -212,20 +206,24 @@ impl VisInput {
     /// leaves; or a portal file alone. A `.bsp` whose lumps overlap where vis would write
     /// ([`bsp::check_vis_layout`]) is refused here, before any work.
     pub fn read(path: &Path) -> Result<Self, VisdataError> {
+        Self::from_bytes(path, read_input(path)?)
+    }
+
+    /// [`VisInput::read`] of the file at `path` whose bytes the caller has read (`bytes`).
+    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<Self, VisdataError> {
         let is_bsp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp"));
-        let bsp = if is_bsp { Some(BspInput::read(path)?) } else { None };
-        let prt_path = if is_bsp {
+        let (bsp, prt_path, bytes) = if is_bsp {
+            let bsp = BspInput::from_bytes(path, bytes)?;
             let tried = prt::beside_bsp(path);
-            match tried.iter().find(|p| p.is_file()) {
-                Some(p) => p.clone(),
-                None => return Err(VisdataError::PrtMissing { bsp: path.into(), tried }),
-            }
+            // The first that exists, whatever it is: one that is not a regular file is refused
+            // by name rather than passed over.
+            let Some(prt_path) = tried.iter().find(|p| p.exists()).cloned() else {
+                return Err(VisdataError::PrtMissing { bsp: path.into(), tried });
+            };
+            let prt_bytes = read_input(&prt_path)?;
+            (Some(bsp), prt_path, prt_bytes)
         } else {
-            path.to_path_buf()
-        };
-        let bytes = match std::fs::read(&prt_path) {
-            Ok(b) => b,
-            Err(source) => return Err(VisdataError::Read { path: prt_path, source }),
+            (None, path.to_path_buf(), bytes)
         };
         let prt = prt::read_bytes(&bytes, &prt_path.display().to_string())?;
         if let Some(b) = &bsp
@@ -255,10 +253,18 @@ impl VisInput {
         path: &Path,
         opts: BspPortalOptions,
     ) -> Result<(Self, BspPortalStats), VisdataError> {
-        let input = BspInput::read(path)?;
+        Self::from_bsp_tree_of(BspInput::read(path)?, opts)
+    }
+
+    /// [`VisInput::from_bsp_tree`] of a `.bsp` already read.
+    pub fn from_bsp_tree_of(
+        input: BspInput,
+        opts: BspPortalOptions,
+    ) -> Result<(Self, BspPortalStats), VisdataError> {
+        let path = input.path.clone();
         let built = bsp_portals::build(&input.bsp, opts)
-            .map_err(|source| VisdataError::Portals { path: path.into(), source })?;
-        Ok((Self { prt_path: path.into(), prt: built.prt, bsp: Some(input) }, built.stats))
+            .map_err(|source| VisdataError::Portals { path: path.clone(), source })?;
+        Ok((Self { prt_path: path, prt: built.prt, bsp: Some(input) }, built.stats))
     }
 
     /// The ambient options of a run that switches off the sounds `off` (see
@@ -277,7 +283,11 @@ impl BspInput {
     /// Reads the `.bsp` at `path`, refusing one whose lumps overlap where vis would write
     /// ([`bsp::check_vis_layout`]), with the `NAME.texinfo.json` beside it when there is one.
     pub fn read(path: &Path) -> Result<Self, VisdataError> {
-        let bytes = std::fs::read(path).map_err(|source| VisdataError::Read { path: path.into(), source })?;
+        Self::from_bytes(path, read_input(path)?)
+    }
+
+    /// [`BspInput::read`] of the file at `path` whose bytes the caller has read (`bytes`).
+    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<Self, VisdataError> {
         let bsp = bsp::read(&bytes).map_err(|source| VisdataError::Bsp { path: path.into(), source })?;
         bsp::check_vis_layout(&bsp.lumps)
             .map_err(|source| VisdataError::Layout { path: path.into(), source })?;
@@ -290,10 +300,10 @@ impl BspInput {
 /// is none.
 fn read_texinfo_side(path: &Path, bsp: &Bsp) -> Result<Option<TexinfoSide>, VisdataError> {
     let side = texinfo_json::path_beside(path);
-    let bytes = match std::fs::read(&side) {
+    let bytes = match read_input(&side) {
         Ok(b) => b,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(source) => return Err(VisdataError::Read { path: side, source }),
+        Err(e) if e.is_not_found() => return Ok(None),
+        Err(e) => return Err(e.into()),
     };
     let flags = texinfo_json::read(&bytes, &side.display().to_string())?;
     let matches = flags.max_texinfo.is_none_or(|t| (t as usize) < bsp.texinfo.len());

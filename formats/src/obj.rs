@@ -1,4 +1,5 @@
-//! Wavefront `.obj` scenes as one indexed triangle mesh, read through `tobj`.
+//! Wavefront `.obj` scenes as one indexed triangle mesh, read through `tobj` from bytes (the
+//! caller reads the file; `tobj` opens none, not even a material library).
 //!
 //! Every object and group of the file is merged into one [`TriMesh`]; polygons are triangulated as
 //! fans by `tobj` (`triangulate`), and vertices are indexed once per distinct `v/vt/vn` triple
@@ -14,8 +15,6 @@
 //! Before `tobj` sees the text, face indices are checked to be no larger in magnitude than the
 //! number of lines (no valid file can use more), which also keeps `tobj`'s index arithmetic from
 //! overflowing on hostile input.
-
-use std::path::Path;
 
 use glam::DVec3;
 
@@ -54,14 +53,6 @@ impl TriMesh {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ObjError {
-    /// The file could not be read.
-    #[error("{path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The IO error.
-        source: std::io::Error,
-    },
     /// A face index that no file of this size can hold (checked before `tobj` runs).
     #[error("{path}:{line}:{col}: face index `{token}` is out of range")]
     FaceIndex {
@@ -118,13 +109,6 @@ pub enum ObjError {
         /// The file.
         path: String,
     },
-}
-
-/// Load an `.obj` file; errors name `path`.
-pub fn load(path: &Path) -> Result<TriMesh, ObjError> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| ObjError::Io { path: name.clone(), source })?;
-    load_from_bytes(&bytes, &name)
 }
 
 /// Load `.obj` text from memory; `name` is used in errors.
@@ -296,13 +280,6 @@ mod tests {
         assert!(matches!(e, ObjError::Parse { line: 4, .. }), "{e:?}");
         assert_eq!(e.to_string(), "b.obj:4");
         assert!(std::error::Error::source(&e).is_some(), "the cause is the error's source");
-    }
-
-    #[test]
-    fn missing_file_names_the_path() {
-        let e = load(Path::new("/nonexistent/x.obj")).unwrap_err();
-        assert_eq!(e.to_string(), "/nonexistent/x.obj");
-        assert!(std::error::Error::source(&e).is_some(), "the IO error is the source");
     }
 
     #[test]

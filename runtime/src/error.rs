@@ -95,15 +95,9 @@ pub enum LoadError {
         #[source]
         source: Box<LoadError>,
     },
-    /// Reading the file failed.
-    #[error("{path}")]
-    Io {
-        /// The path.
-        path: String,
-        /// The IO error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// Reading the file failed, or it is not a regular file (the error names it).
+    #[error(transparent)]
+    Io(#[from] sightline_job::input::InputError),
 }
 
 /// Why a level's GVS lumps cannot be used ([`crate::gvs_cells::GvsCells::from_level`]).

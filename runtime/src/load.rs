@@ -9,6 +9,7 @@ use sightline_formats::bsp::{CompiledMap, Parsed};
 use sightline_formats::level::{Level, LevelPlane, Portal};
 use sightline_formats::prt::{self, PortalFile, PrtFormat};
 use sightline_formats::slvl;
+use sightline_job::input::read_input;
 
 use crate::error::LoadError;
 use crate::pvs::PvsRows;
@@ -67,13 +68,13 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
 /// Load a file. For a Quake 1 or Half-Life `.bsp`, the portal file beside it
 /// ([`sightline_formats::prt::find_beside_bsp`], the rule `vis` follows too) is used when present
 /// and in PRT1 form (`\n` or `\r\n` line breaks alike); Quake 2 and Quake 3 portal files name
-/// clusters, not leaves, and are not read. Every error names the file: [`LoadError::Io`] by
+/// clusters, not leaves, and are not read. Only a regular file is read
+/// ([`sightline_job::input::read_input`]). Every error names the file: [`LoadError::Io`] by
 /// itself, the others inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
-    let io = |source| LoadError::Io { path: path.display().to_string(), source };
-    let bytes = std::fs::read(path).map_err(io)?;
+    let bytes = read_input(path)?;
     let in_file = |e: LoadError| match e {
-        LoadError::Io { .. } => e,
+        LoadError::Io(_) => e,
         other => LoadError::File { path: path.display().to_string(), source: Box::new(other) },
     };
     if bytes.starts_with(&slvl::MAGIC) {
@@ -83,7 +84,7 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
     // Quake 2 and Quake 3 portals join clusters, not leaves: the portal backend cannot use them.
     if let Parsed::Quake(_) = map.parsed()
         && let Some(prt_path) = sibling_prt(path)
-        && let Ok(prt_bytes) = std::fs::read(&prt_path)
+        && let Ok(prt_bytes) = read_input(&prt_path)
         && let text = String::from_utf8_lossy(&prt_bytes)
         && PrtFormat::of_text(&text) == Some(PrtFormat::Prt1)
     {

@@ -14,7 +14,8 @@ use std::time::Instant;
 
 use sightline_formats::vispatch::{self, VisPatchRecord};
 
-use super::quake::{is_bsp, map_name, read_input, write_pack};
+use super::quake::{is_bsp, map_name, vis_input, write_pack};
+use sightline_job::input::{InputError, read_input};
 use sightline_job::progress::Progress;
 
 use super::{DropInError, DropInOptions, PackReport, PackedMap, SkippedMap};
@@ -36,18 +37,14 @@ pub fn run(
     }
     let opts = DropInOptions { external_vis: Some(out.to_path_buf()), ..opts.clone() };
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|source| DropInError::Read { path: dir.into(), source })?
+        .map_err(|source| InputError::Io { path: dir.into(), source })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| is_bsp(p) && p.is_file())
         .collect();
     files.sort();
-    let mut inputs: Vec<PathBuf> = Vec::new();
-    for f in &files {
-        inputs.push(f.clone());
-        inputs.extend(sightline_formats::prt::beside_bsp(f));
-    }
+    let inputs: Vec<PathBuf> = files.iter().flat_map(|f| super::inputs_of(f)).collect();
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    sightline_job::apart::check_apart(&inputs, &[out])?;
+    sightline_job::apart::check_outputs(&inputs, &[out])?;
     let mut records: Vec<VisPatchRecord> = Vec::new();
     let mut report = PackReport {
         input: dir.display().to_string(),
@@ -114,7 +111,7 @@ fn pack_one(
             ),
         ));
     }
-    let (input, _) = read_input(file, opts)?;
+    let (input, _) = vis_input(file, read_input(file)?, opts)?;
     let Some(b) = &input.bsp else { return Err(DropInError::refused(file, "not a .bsp")) };
     let mut result = super::flow(&input.prt, opts, progress, file)?;
     if let Some(d) = opts.farplane() {

@@ -1,8 +1,8 @@
 //! The drop-in vis of a Quake 1 or Half-Life `.bsp` (BSP29, BSP2, BSP2-RMQ, BSP30), or of a
 //! portal file alone.
 //!
-//! A `.bsp` takes its portals from the `.prt` beside it ([`VisInput::read`]) or rebuilt from its
-//! tree ([`VisInput::from_bsp_tree`]); the rows, with ambient levels, go back into the `.bsp`
+//! A `.bsp` takes its portals from the `.prt` beside it ([`VisInput::from_bytes`]) or rebuilt from
+//! its tree ([`VisInput::from_bsp_tree_of`]); the rows, with ambient levels, go back into the `.bsp`
 //! ([`visdata::write_into_bsp_with`]) or, with [`DropInOptions::external_vis`], into an external
 //! `.vis` record engines load beside a BSP29 map ([`visdata::vispatch_record`]). A portal file
 //! alone gives `NAME.vis` ([`Rows::vis_file`]). The far plane needs the `.bsp` (its leaf bounds).
@@ -19,11 +19,13 @@ use sightline_job::progress::Progress;
 use super::{DropInError, DropInOptions, QuakeReport};
 use crate::bsp_portals::BspPortalStats;
 use crate::vis;
-use crate::visdata::{self, Rows, VisInput};
+use crate::visdata::{self, BspInput, Rows, VisInput};
 
-/// Runs the drop-in vis on the Quake 1 or Half-Life `.bsp`, or the portal file, at `path`.
+/// Runs the drop-in vis on the Quake 1 or Half-Life `.bsp`, or the portal file, at `path`, whose
+/// bytes are `bytes`.
 pub fn run(
     path: &Path,
+    bytes: Vec<u8>,
     opts: &DropInOptions,
     progress: &dyn Progress,
     t0: Instant,
@@ -31,17 +33,7 @@ pub fn run(
     if opts.phs_only {
         return Err(DropInError::refused(path, "--phs-only needs a Quake 2 .bsp (IBSP 38)"));
     }
-    // The files this run writes (a `.bsp` is rewritten in place, on purpose) must not be its inputs.
-    let written = match &opts.external_vis {
-        Some(out) => Some(out.clone()),
-        None => (!is_bsp(path)).then(|| path.with_extension("vis")),
-    };
-    if let Some(out) = &written {
-        let beside = sightline_formats::prt::beside_bsp(path);
-        let inputs: Vec<&Path> = std::iter::once(path).chain(beside.iter().map(|p| p.as_path())).collect();
-        sightline_job::apart::check_apart(&inputs, &[out])?;
-    }
-    let (input, rebuilt) = read_input(path, opts)?;
+    let (input, rebuilt) = vis_input(path, bytes, opts)?;
     let farplane = opts.farplane();
     if farplane.is_some() && input.bsp.is_none() {
         return Err(DropInError::refused(
@@ -116,11 +108,12 @@ pub(crate) fn is_bsp(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp"))
 }
 
-/// The vis input of `path`: its `.prt`, or its portals rebuilt from its tree (with their counts).
-/// With an external `.vis` the `.bsp` must be BSP29 and its name fit a record; both are checked
-/// here, before any vis work.
-pub(crate) fn read_input(
+/// The vis input of `path` (whose bytes are `bytes`): its `.prt`, or its portals rebuilt from its
+/// tree (with their counts). With an external `.vis` the `.bsp` must be BSP29 and its name fit a
+/// record; both are checked here, before any vis work.
+pub(crate) fn vis_input(
     path: &Path,
+    bytes: Vec<u8>,
     opts: &DropInOptions,
 ) -> Result<(VisInput, Option<BspPortalStats>), DropInError> {
     if (opts.portals_from_tree.is_some() || opts.external_vis.is_some()) && !is_bsp(path) {
@@ -131,10 +124,10 @@ pub(crate) fn read_input(
     }
     let (input, stats) = match opts.portals_from_tree {
         Some(tree) => {
-            let (input, stats) = VisInput::from_bsp_tree(path, tree)?;
+            let (input, stats) = VisInput::from_bsp_tree_of(BspInput::from_bytes(path, bytes)?, tree)?;
             (input, Some(stats))
         }
-        None => (VisInput::read(path)?, None),
+        None => (VisInput::from_bytes(path, bytes)?, None),
     };
     if opts.external_vis.is_some()
         && let Some(b) = &input.bsp

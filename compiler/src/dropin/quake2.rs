@@ -17,15 +17,16 @@ use sightline_job::progress::Progress;
 use super::{DropInError, DropInOptions, Q2Report};
 use crate::{phs, vis, visdata};
 
-/// Runs the drop-in vis on the Quake 2 `.bsp` at `path`.
+/// Runs the drop-in vis on the Quake 2 `.bsp` at `path`, whose bytes are `bytes`.
 pub fn run(
     path: &Path,
+    bytes: Vec<u8>,
     opts: &DropInOptions,
     progress: &dyn Progress,
     t0: Instant,
 ) -> Result<Q2Report, DropInError> {
     refuse_quake1_options(path, opts)?;
-    let map = CompiledMap::read(super::read(path)?).map_err(DropInError::bsp(path))?;
+    let map = CompiledMap::read(bytes).map_err(DropInError::bsp(path))?;
     let Parsed::Quake2(file) = map.parsed() else {
         return Err(DropInError::refused(path, "not a Quake 2 .bsp (IBSP 38)"));
     };

@@ -16,9 +16,10 @@ use sightline_job::progress::Progress;
 
 use super::{DropInError, DropInOptions, Q3Report};
 
-/// Runs the drop-in vis on the Quake 3 `.bsp` at `path`.
+/// Runs the drop-in vis on the Quake 3 `.bsp` at `path`, whose bytes are `bytes`.
 pub fn run(
     path: &Path,
+    bytes: Vec<u8>,
     opts: &DropInOptions,
     progress: &dyn Progress,
     t0: Instant,
@@ -34,7 +35,7 @@ pub fn run(
         ));
     }
     let name = path.display();
-    let map = CompiledMap::read(super::read(path)?).map_err(DropInError::bsp(path))?;
+    let map = CompiledMap::read(bytes).map_err(DropInError::bsp(path))?;
     map.check_vis_layout().map_err(DropInError::bsp(path))?;
     let (prt_path, portals) = super::portals_beside(path, "; run q3map2 -bsp, or -vis with -saveprt")?;
     let prt_path = &prt_path;

@@ -265,10 +265,13 @@ pub struct Expect {
 /// or inconsistent file (every error names the file). The rows and pairs are checked by
 /// [`State::replay`].
 pub fn load(path: &Path, want: &Expect) -> Result<Option<State>, VisError> {
-    let bytes = match std::fs::read(path) {
+    let bytes = match sightline_job::input::read_input(path) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(VisError::State(format!("{}: {e}", path.display()))),
+        Err(e) if e.is_not_found() => return Ok(None),
+        Err(e) => {
+            let cause = std::error::Error::source(&e).map(|c| format!(": {c}")).unwrap_or_default();
+            return Err(VisError::State(format!("{e}{cause}")));
+        }
     };
     let state = decode(&bytes).map_err(|e| {
         VisError::State(format!("{}: not a usable vis state ({e}); delete it to start over", path.display()))

@@ -6,7 +6,9 @@
 //! output that does not exist yet is compared by its absolute path (its folder resolved, symlinks
 //! included) with the other outputs, since two of them may be about to be created at the same
 //! place. [`check_apart`] refuses a run whose outputs would replace one of its inputs or one
-//! another.
+//! another; [`check_outputs`] also checks that each output can be written where it points
+//! ([`crate::atomic::check_writable`]: its folder exists and takes files, it is no folder, FIFO,
+//! socket or block device), so a command refuses a bad output before its work, not after.
 
 use std::io;
 use std::path::{Path, PathBuf};
@@ -92,7 +94,17 @@ pub fn check_apart(inputs: &[&Path], outputs: &[&Path]) -> Result<(), CheckError
     Ok(())
 }
 
-/// Why [`check_apart`] refused.
+/// [`crate::atomic::check_writable`] for every output (a missing folder is said as such), then
+/// [`check_apart`]: all that can be told about a run's outputs before its work.
+pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<(), CheckError> {
+    for &out in outputs {
+        crate::atomic::check_writable(out)
+            .map_err(|e| CheckError::Unwritable { path: out.to_path_buf(), message: e.to_string() })?;
+    }
+    check_apart(inputs, outputs)
+}
+
+/// Why [`check_apart`] or [`check_outputs`] refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CheckError {
     /// An output would replace an input or another output.
@@ -101,6 +113,14 @@ pub enum CheckError {
     /// Where an output leads could not be told.
     #[error("cannot check the output {}: {message}", path.display())]
     Io {
+        /// The output.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// An output cannot be written where it points ([`check_outputs`]).
+    #[error("cannot write the output {}: {message}", path.display())]
+    Unwritable {
         /// The output.
         path: PathBuf,
         /// Why.
@@ -148,6 +168,22 @@ mod tests {
             Ok(()),
             "a missing input is its reader's to report"
         );
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn outputs_that_cannot_be_written_are_refused_naming_them() {
+        let d = dir("writable");
+        let a = d.join("a.map");
+        std::fs::write(&a, b"x").expect("write");
+        let fresh = d.join("a.slvl");
+        assert_eq!(check_outputs(&[&a], &[&fresh]), Ok(()));
+        let nowhere = d.join("no-such-folder").join("a.slvl");
+        let e = check_outputs(&[&a], &[&fresh, &nowhere]).expect_err("no folder");
+        assert!(matches!(&e, CheckError::Unwritable { path, .. } if *path == nowhere), "{e:?}");
+        let e = check_outputs(&[&a], &[&d]).expect_err("a folder");
+        assert!(e.to_string().contains(&d.display().to_string()), "{e}");
+        assert!(matches!(check_outputs(&[&a], &[&a]), Err(CheckError::NotApart(_))), "writable, not apart");
         let _ = std::fs::remove_dir_all(&d);
     }
 }

@@ -103,7 +103,8 @@ const char *sl_version(void);
 /* Message of the last failure on this thread ("" when none); valid until the next failure. */
 const char *sl_last_error(void);
 
-/* Load a .slvl or Quake .bsp (a PRT1 NAME.prt beside NAME.bsp or NAME.vis.bsp adds portals). */
+/* Load a .slvl or Quake .bsp (a PRT1 NAME.prt beside NAME.bsp or NAME.vis.bsp adds portals).
+   Only a regular file is read (symlinks followed): a folder, FIFO or device is SL_ERR_IO. */
 int sl_world_load_file(const char *path, SlWorld **out);
 /* Load .slvl or .bsp bytes (copied). */
 int sl_world_load_bytes(const uint8_t *data, size_t len, SlWorld **out);

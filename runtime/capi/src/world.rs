@@ -17,14 +17,15 @@ pub(crate) fn store_world(result: Result<World, LoadError>, out: *mut *mut SlWor
             SL_OK
         }
         Err(err) => {
-            let code = if matches!(err, LoadError::Io { .. }) { SL_ERR_IO } else { SL_ERR_INVALID };
+            let code = if matches!(err, LoadError::Io(_)) { SL_ERR_IO } else { SL_ERR_INVALID };
             set_error(error_chain(&err));
             code
         }
     }
 }
 
-/// Load a `.slvl` or `.bsp` file (a PRT1 `NAME.prt` beside a `.bsp` adds portals).
+/// Load a `.slvl` or `.bsp` file (a PRT1 `NAME.prt` beside a `.bsp` adds portals). Only a regular
+/// file is read (symlinks followed): a folder, FIFO or device is `SL_ERR_IO`, naming it.
 ///
 /// # Safety
 /// `path` must be a NUL-terminated string and `out` a valid pointer to writable storage.

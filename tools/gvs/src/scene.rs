@@ -10,6 +10,7 @@ use sightline_formats::Level;
 use sightline_formats::bsp::{BspError, CompiledMap};
 use sightline_formats::obj::ObjError;
 use sightline_formats::slvl::SlvlError;
+use sightline_job::input::{InputError, read_input};
 
 use super::geom::Cell;
 use crate::scenegen::{self, SpecError};
@@ -107,15 +108,9 @@ pub enum LoadError {
     /// An `.obj` that does not load.
     #[error(transparent)]
     Obj(#[from] ObjError),
-    /// A level file that cannot be read.
-    #[error("reading {}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// The IO error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// A scene file that cannot be read, or is not a regular file (the error names it).
+    #[error(transparent)]
+    Read(#[from] InputError),
     /// A level file that is not a valid `.slvl`.
     #[error("{}", path.display())]
     Level {
@@ -163,7 +158,7 @@ pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), L
 /// The triangles of the `.obj` mesh at `path` (triangles with a corner outside the vertex list
 /// are skipped).
 fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
-    let mesh = sightline_formats::obj::load(path)?;
+    let mesh = sightline_formats::obj::load_from_bytes(&read_input(path)?, &path.display().to_string())?;
     let triangles =
         (0..mesh.triangles.len()).filter_map(|i| mesh.triangle(i)).map(|t| t.map(|p| p.as_vec3())).collect();
     Ok(TriScene { triangles, face_of: None, suggested: Vec::new() })
@@ -171,7 +166,7 @@ fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
 
 /// Read and validate the `.slvl` level at `path`.
 fn read_level(path: &Path) -> Result<Level, LoadError> {
-    let bytes = read_file(path)?;
+    let bytes = read_input(path)?;
     sightline_formats::slvl::read(&bytes)
         .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })
 }
@@ -179,18 +174,13 @@ fn read_level(path: &Path) -> Result<Level, LoadError> {
 /// Read the compiled map at `path` (any Quake-family game) as a level, and validate it as a
 /// `.slvl` is validated when read.
 fn read_bsp(path: &Path) -> Result<Level, LoadError> {
-    let bytes = read_file(path)?;
+    let bytes = read_input(path)?;
     let level = CompiledMap::read(bytes)
         .and_then(|map| map.to_level())
         .map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
     sightline_formats::slvl::validate(&level)
         .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })?;
     Ok(level)
-}
-
-/// The bytes of the file at `path`.
-fn read_file(path: &Path) -> Result<Vec<u8>, LoadError> {
-    std::fs::read(path).map_err(|source| LoadError::Read { path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]

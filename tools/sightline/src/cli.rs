@@ -54,7 +54,7 @@ pub fn main() -> i32 {
             return 2;
         }
     };
-    let cli = Cli::parse_from(args);
+    let cli = Cli::parse_from(join_negative_values(args));
     // Commands that stop on request take Ctrl-C and SIGTERM from the start (the reading of a large
     // input included), not only once their long work begins.
     if matches!(cli.command, Command::Compile(_) | Command::Vis(_) | Command::Validate(_) | Command::Gvs(_)) {
@@ -80,6 +80,38 @@ pub fn main() -> i32 {
             2
         }
     })
+}
+
+/// `args` with every negative number that follows a long option joined to it (`--level -1` becomes
+/// `--level=-1`, `--cell -64,-64,0,64,64,128` becomes `--cell=-64,...`): clap would take the
+/// number for an unknown flag and say so without naming the option; joined, it is the option's
+/// value, which the option's range check refuses naming it (or takes, when its range allows it).
+/// Nothing after `--` changes, nor a word that only starts with `-` (`-o`, `--json`).
+pub fn join_negative_values(args: Vec<OsString>) -> Vec<OsString> {
+    let negative = |w: &OsString| {
+        w.to_str().and_then(|w| w.strip_prefix('-')).is_some_and(|rest| {
+            rest.starts_with(|c: char| c.is_ascii_digit() || c == '.') || rest.parse::<f64>().is_ok()
+        })
+    };
+    let mut out: Vec<OsString> = Vec::with_capacity(args.len());
+    let mut rest = args.into_iter();
+    while let Some(word) = rest.next() {
+        let option = word.to_str().is_some_and(|w| w.starts_with("--") && w.len() > 2 && !w.contains('='));
+        if word == "--" {
+            out.push(word);
+            out.extend(rest.by_ref());
+            break;
+        }
+        out.push(word);
+        if option && rest.as_slice().first().is_some_and(negative) {
+            let value = rest.next().unwrap_or_default();
+            if let Some(last) = out.last_mut() {
+                last.push("=");
+                last.push(value);
+            }
+        }
+    }
+    out
 }
 
 /// `args` (the program name first) with a `vis` subcommand's ericw-tools / id options turned into
@@ -112,4 +144,33 @@ pub fn translate_vis_args(args: Vec<OsString>) -> Result<Vec<OsString>, String> 
     }
     let rest = cmd::vis::ericw_args(words, &|long| takes_value.iter().any(|l| l == long), &shorts)?;
     Ok(args[..=at].iter().cloned().chain(rest).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(line: &str) -> Vec<OsString> {
+        line.split(' ').map(OsString::from).collect()
+    }
+
+    #[test]
+    fn a_negative_number_after_a_long_option_is_its_value() {
+        let joined = |line: &str| join_negative_values(words(line));
+        assert_eq!(joined("s vis a.prt --level -1"), words("s vis a.prt --level=-1"));
+        assert_eq!(
+            joined("s gvs g --cell -64,-6,0,1,1,1 --eps -inf"),
+            words("s gvs g --cell=-64,-6,0,1,1,1 --eps=-inf")
+        );
+        assert_eq!(joined("s render a -o -x.png --z -.5..2"), words("s render a -o -x.png --z=-.5..2"));
+        for same in [
+            "s info --json a.bsp",
+            "s vis --level=-1 a",
+            "s x --fov -- -1",
+            "s x --json -o a",
+            "s x -- --a -1",
+        ] {
+            assert_eq!(joined(same), words(same), "{same}");
+        }
+    }
 }

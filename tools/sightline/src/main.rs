@@ -27,6 +27,7 @@ macro_rules! eprintln {
 mod cli;
 mod cmd;
 mod interrupt;
+mod limits;
 mod out;
 mod outcome;
 mod output;

@@ -11,10 +11,11 @@ use anyhow::Context;
 use sightline_job::atomic::{Durability, write_file_with, write_files_with};
 
 /// Refuses, before any work, outputs that would replace one of the command's `inputs` or one
-/// another ([`sightline_job::apart::check_apart`]: by file identity, so `./a.map`, symlinks and
-/// hard links count as the same file).
-pub fn check_apart(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
-    Ok(sightline_job::apart::check_apart(inputs, outputs)?)
+/// another (by file identity, so `./a.map`, symlinks and hard links count as the same file), or
+/// that cannot be written where they point (a missing folder, a FIFO):
+/// [`sightline_job::apart::check_outputs`].
+pub fn check(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
+    Ok(sightline_job::apart::check_outputs(inputs, outputs)?)
 }
 
 /// Writes files that belong together ([`write_files_with`]: all or none replaced, renamed in the

@@ -17,8 +17,8 @@ pub struct VisFlags {
     /// Ctrl-C. The same command run again resumes from it.
     #[arg(long)]
     pub state: Option<PathBuf>,
-    /// Seconds between checkpoints.
-    #[arg(long, default_value_t = 180)]
+    /// Seconds between checkpoints, 1 to 31536000 (a year).
+    #[arg(long, default_value_t = 180, value_parser = clap::value_parser!(u64).range(1..=31_536_000))]
     pub checkpoint_secs: u64,
     /// Stop after this many flow portals (after writing the state): for testing resumes.
     #[arg(long, hide = true)]
@@ -75,7 +75,7 @@ impl VisFlags {
             fast: self.fast,
             level: self.level,
             state: self.state.clone(),
-            checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_secs.max(1)),
+            checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_secs),
             stop_after: self.stop_after,
             cancel: crate::interrupt::cancel(),
             max_memory: self.max_memory,

@@ -5,21 +5,16 @@ use std::path::{Path, PathBuf};
 use sightline_formats::bsp::BspError;
 use sightline_formats::slvl::SlvlError;
 use sightline_formats::{Level, bsp, slvl};
+use sightline_job::input::{InputError, read_input};
 
 /// Why a level file could not be loaded. Each variant names the file; the cause, when there is
 /// one, is the error's [`source`](std::error::Error::source).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LoadError {
-    /// The file could not be read.
-    #[error("reading {}", .path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be read, or is not a regular file (the error names it).
+    #[error(transparent)]
+    Io(#[from] InputError),
     /// A `.bsp` file that is not a valid Quake-family BSP.
     #[error("{}", .path.display())]
     Bsp {
@@ -51,7 +46,7 @@ pub enum LoadError {
 /// cluster per vis leaf, Quake 2 and 3 the file's clusters).
 pub fn load_level(path: &Path) -> Result<Level, LoadError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
+    let bytes = read_input(path)?;
     match ext.as_str() {
         "bsp" => {
             let err = |source| LoadError::Bsp { path: path.to_path_buf(), source };
@@ -82,7 +77,7 @@ mod tests {
     fn errors_name_the_file_once() {
         let e = load_level(Path::new("/nonexistent/x.bsp")).unwrap_err();
         let io = std::fs::read("/nonexistent/x.bsp").unwrap_err();
-        assert_eq!(chain(&e), format!("reading /nonexistent/x.bsp: {io}"));
+        assert_eq!(chain(&e), format!("cannot read /nonexistent/x.bsp: {io}"));
         let dir = std::env::temp_dir().join(format!("sightline-validate-load-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let (bad_bsp, other) = (dir.join("bad.bsp"), dir.join("level.txt"));

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
+use clap::builder::RangedU64ValueParser;
 use serde_json::json;
 use sightline_runtime::backend::{self, Backend, pvs::Pvs};
 use sightline_runtime::walk;
@@ -32,8 +33,9 @@ pub struct Args {
     /// it: `NAME.prt`, or for `NAME.vis.bsp` `NAME.vis.prt` then `NAME.prt`, gives the portal
     /// backend its portals).
     pub input: PathBuf,
-    /// Camera poses (frames) per backend.
-    #[arg(long, default_value_t = 10_000)]
+    /// Camera poses (frames) per backend, 1 to 100000000; their timings are kept (about 500 bytes
+    /// a frame), which must fit in memory.
+    #[arg(long, default_value_t = 10_000, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_FRAMES))]
     pub frames: usize,
     /// Seed of the pose generator.
     #[arg(long, default_value_t = 1)]
@@ -53,6 +55,15 @@ pub struct Args {
     #[arg(long)]
     pub cull_back_faces: bool,
 }
+
+/// Most frames (`--frames`).
+const MAX_FRAMES: u64 = 100_000_000;
+
+/// Bytes held per frame while a backend is measured: its camera and view, its time, time per leaf
+/// and the coherent camera's times (3 × 8), portals crossed (4), and the PVS backend's mark and
+/// walk times and walk time per leaf (3 × 8).
+const BYTES_PER_FRAME: u64 =
+    (size_of::<Camera>() + size_of::<sightline_runtime::View>() + 3 * 8 + 4 + 3 * 8) as u64;
 
 /// Timings and counts of one backend.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -93,7 +104,8 @@ struct Report {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
+    let need = args.frames as u64 * BYTES_PER_FRAME;
+    crate::limits::fits_memory(&format!("--frames {}", args.frames), need, 1)?;
     // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
     let mut world = load::load_path(&args.input)?;
     if !world.has_vis() {

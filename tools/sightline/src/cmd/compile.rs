@@ -12,7 +12,6 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use sightline_compiler::vis::VisError;
 use sightline_compiler::{CompileError, CompileOptions, Compiled, LeakReport, Source, compile};
-use sightline_job::atomic::check_writable;
 
 use crate::outcome::Outcome;
 use crate::output;
@@ -32,8 +31,8 @@ pub struct Args {
     /// input with the extension `.slvl`.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Worker threads (default: every core). The output is the same for any count.
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: every core). The output is the same for any count.
+    #[arg(long, value_parser = crate::limits::threads())]
     pub threads: Option<usize>,
     /// Stop after portals: the level has no PVS.
     #[arg(long)]
@@ -76,13 +75,17 @@ fn print_leak(leak: &LeakReport, pts: &Path) {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = std::time::Instant::now();
     let out = args.output.clone().unwrap_or_else(|| with_extension(&args.input, "slvl"));
-    // The level, portal file and pointfile all go into the output's folder: check up front that it
-    // takes files, rather than after the whole compile.
-    check_writable(&out).with_context(|| format!("cannot write the output {}", out.display()))?;
-    let source = Source::read(&args.input)?;
     let prt_path = with_extension(&out, "prt");
     let pts_path = with_extension(&out, "pts");
-    output::check_apart(&[&args.input], &[&out, &prt_path, &pts_path])?;
+    // The level, portal file, pointfile and vis checkpoint: checked up front (apart from the map
+    // and one another, and writable), rather than after the whole compile.
+    let outputs: Vec<&Path> = [&out, &prt_path, &pts_path]
+        .into_iter()
+        .map(PathBuf::as_path)
+        .chain(args.vis.state.as_deref())
+        .collect();
+    let source = Source::read(&args.input)?;
+    output::check(&[&args.input], &outputs)?;
     let opts = CompileOptions {
         threads: args.threads,
         allow_leak: args.allow_leak,

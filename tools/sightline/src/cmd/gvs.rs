@@ -11,10 +11,12 @@
 //! The work is [`sightline_gvs`]'s (scene loading, cells, the runs, the error metric); this file
 //! parses the arguments, draws the progress bars, times the phases and prints.
 
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use clap::builder::RangedU64ValueParser;
 use glam::Vec3;
 use serde::Serialize;
 use sightline_gvs::error::{self, ErrorStats};
@@ -26,6 +28,7 @@ use sightline_gvs::{
 };
 use sightline_raycast::Bvh;
 
+use crate::limits::{self, MAX_RAYS};
 use crate::outcome::Outcome;
 use crate::progress::Bars;
 
@@ -41,8 +44,8 @@ pub struct Args {
     /// View cells: `auto`, a grid cell size, `leaves`, or `x0,y0,z0,x1,y1,z1` (repeatable).
     #[arg(long, default_value = "auto")]
     pub cell: Vec<String>,
-    /// Use at most this many cells (evenly spaced through the list).
-    #[arg(long)]
+    /// Use at most this many cells (evenly spaced through the list), 1 to 1048576.
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=cells::MAX_GRID))]
     pub max_cells: Option<usize>,
     /// Variant to run: gvs (stock), d4, adt, edgepoint, first, edgepoint+sil, edgepoint+probe,
     /// edgepoint+probe+first, edgepoint+probe+first+target (the default: the most accurate per
@@ -56,54 +59,57 @@ pub struct Args {
     /// the first cell's width along x).
     #[arg(long = "move", requires = "compare")]
     pub move_by: Option<String>,
-    /// Views per measured cell for the error metric (0 disables it).
-    #[arg(long, default_value_t = 10)]
+    /// Views per measured cell for the error metric, 0 to 10000 (0 disables it).
+    #[arg(long, default_value_t = 10, value_parser = RangedU64ValueParser::<usize>::new().range(0..=MAX_VIEWS))]
     pub views: usize,
-    /// ID buffer width and height in pixels.
-    #[arg(long, default_value_t = 1000)]
+    /// ID buffer width and height in pixels, 0 to 8192 (0 disables the error metric).
+    #[arg(long, default_value_t = 1000, value_parser = RangedU64ValueParser::<usize>::new().range(0..=MAX_RES))]
     pub res: usize,
-    /// ID buffer field of view in degrees.
-    #[arg(long, default_value_t = 60.0)]
+    /// ID buffer field of view in degrees, in (0, 180).
+    #[arg(long, default_value_t = 60.0, value_parser = limits::float_in::<f32>((Excluded(0.0), Excluded(180.0)), "a field of view in degrees"))]
     pub fov: f32,
-    /// Cells whose error is measured (evenly spaced).
-    #[arg(long, default_value_t = 4)]
+    /// Cells whose error is measured (evenly spaced), 0 to 1048576.
+    #[arg(long, default_value_t = 4, value_parser = RangedU64ValueParser::<usize>::new().range(0..=cells::MAX_GRID))]
     pub error_cells: usize,
-    /// Enlarged-outline angular offset (radians).
-    #[arg(long)]
+    /// Enlarged-outline angular offset (radians), in (0, 1].
+    #[arg(long, value_parser = limits::float_in::<f32>((Excluded(0.0), Included(1.0)), "an angle in radians"))]
     pub eps: Option<f32>,
-    /// Deepest edge bisection.
-    #[arg(long)]
+    /// Deepest edge bisection, 1 to 64.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub max_depth: Option<u32>,
-    /// Relative depth-discontinuity threshold.
-    #[arg(long)]
+    /// Relative depth-discontinuity threshold, in [0, 1).
+    #[arg(long, value_parser = limits::float_in::<f32>(0.0..1.0, "a fraction of the depth"))]
     pub disc: Option<f32>,
-    /// Angular threshold of the `adt` variant (radians).
-    #[arg(long)]
+    /// Angular threshold of the `adt` variant (radians), positive.
+    #[arg(long, value_parser = limits::float_in::<f32>((Excluded(0.0), Unbounded), "an angle in radians"))]
     pub adt: Option<f32>,
-    /// Termination window in rays.
-    #[arg(long)]
+    /// Termination window in rays, 1 to 10^12.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
     pub window: Option<u64>,
-    /// Fewest new triangles per window to go on.
+    /// Fewest new triangles per window to go on (0: the window never stops a run).
     #[arg(long)]
     pub min_new: Option<u32>,
-    /// Cap on all rays per cell.
-    #[arg(long)]
+    /// Cap on all rays per cell, 1 to 10^12.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
     pub max_rays: Option<u64>,
-    /// Cap on random rays per cell.
-    #[arg(long)]
+    /// Cap on random rays per cell, 0 to 10^12.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=MAX_RAYS))]
     pub max_random: Option<u64>,
-    /// Initial random rays of the "first" variants (default 100000).
-    #[arg(long)]
+    /// Initial random rays of the "first" variants (default 100000), 0 to 10^12; each thread
+    /// holds those of its cell at once (48 bytes a ray), which must fit in memory.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=MAX_RAYS))]
     pub first: Option<u64>,
-    /// Triangles aimed at per unreached triangle group of the "target" variant (default 3).
-    #[arg(long)]
+    /// Triangles aimed at per unreached triangle group of the "target" variant (default 3), 0 to
+    /// 65536.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_PER_TARGET))]
     pub targets: Option<u32>,
-    /// Most rays aimed at one target triangle, from points spread over the cell (default 16).
-    #[arg(long)]
+    /// Most rays aimed at one target triangle, from points spread over the cell (default 16), 0
+    /// to 65536.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_PER_TARGET))]
     pub target_rays: Option<u32>,
     /// Rays neighbour probing casts, from random points of the cell, at a probed triangle its
-    /// fixed rays missed (default 8).
-    #[arg(long)]
+    /// fixed rays missed (default 8), 0 to 65536.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_PER_TARGET))]
     pub probe_rays: Option<u32>,
     /// Edge-point walk without the forced midpoint ray.
     #[arg(long)]
@@ -117,16 +123,16 @@ pub struct Args {
     /// Seed of generated scenes.
     #[arg(long, default_value_t = 1)]
     pub scene_seed: u64,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_parser = limits::threads())]
     pub threads: Option<usize>,
     /// Write the level with the per-cell face sets to this `.slvl`.
     #[arg(short = 'o', long)]
     pub output: Option<std::path::PathBuf>,
     /// List the N triangles with most wrong pixels in every measured view of the first variant
     /// run (pixels, distance from the eye, |cos| between its normal and the view ray), to find
-    /// where the error comes from. Text output only.
-    #[arg(long, default_value_t = 0)]
+    /// where the error comes from. Text output only. At most 1000000.
+    #[arg(long, default_value_t = 0, value_parser = RangedU64ValueParser::<usize>::new().range(0..=1_000_000))]
     pub missed: usize,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -197,17 +203,37 @@ const BEST: Variant = Variant::ProbeFirstTarget;
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if let Some(out) = &args.output {
-        crate::output::check_apart(&[Path::new(&args.input)], &[out])?;
+        crate::output::check(&[Path::new(&args.input)], &[out])?;
     }
     let checked = check(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;
-    pool.install(|| run_in_pool(args, checked, threads.max(1)))
+    // The "first" random rays of a cell are held at once, by every thread running a cell.
+    let first = checked.variants.iter().map(|v| v.params(checked.params).first).max().unwrap_or(0);
+    let first = first.min(checked.params.max_random).min(checked.params.max_rays);
+    let batch = threads as u64 * first * FIRST_RAY_BYTES;
+    limits::fits_memory(
+        &format!("--first {first} random rays on each of {threads} threads"),
+        batch,
+        threads,
+    )?;
+    let pool = limits::pool(threads)?;
+    pool.install(|| run_in_pool(args, checked, threads))
 }
 
 /// Widest ID buffer (`--res`): one buffer of 8192² pixels takes 256 MiB of triangle ids (and at
 /// most twice as many tie entries, see `gvs::twins`).
-const MAX_RES: usize = 8192;
+const MAX_RES: u64 = 8192;
+
+/// Most error views per measured cell (`--views`; each cell's views are drawn at once).
+const MAX_VIEWS: u64 = 10_000;
+
+/// Most targets per group and rays per target or probed triangle (`--targets`,
+/// `--target-rays`, `--probe-rays`).
+const MAX_PER_TARGET: i64 = 65_536;
+
+/// Bytes of one "first" random ray while its batch is sorted: the ray (origin and direction, 24
+/// bytes) in the batch and again in the sorted copy.
+const FIRST_RAY_BYTES: u64 = 48;
 
 /// What `run` takes from the arguments besides the scene and the cells, checked before any work.
 #[derive(Debug)]
@@ -216,31 +242,28 @@ struct Checked {
     variants: Vec<Variant>,
     /// `--move`, parsed.
     shift: Option<Vec3>,
+    /// `--cell`, parsed.
+    cells: Vec<CellSpec>,
 }
 
 fn check(args: &Args) -> anyhow::Result<Checked> {
     let params = params(args);
     params.check()?;
-    if !(args.fov > 0.0 && args.fov < 180.0) {
-        bail!("--fov {}: the ID buffers' field of view must be between 0 and 180 degrees", args.fov);
-    }
-    if args.res > MAX_RES {
-        bail!("--res {}: ID buffers are at most {MAX_RES} pixels wide", args.res);
-    }
     let variants = if args.compare { Variant::ALL.to_vec() } else { vec![parse_variant(&args.variant)?] };
-    let shift = args.move_by.as_deref().map(parse_vec).transpose()?;
-    Ok(Checked { params, variants, shift })
+    let shift = args.move_by.as_deref().map(|s| parse_vec(s).context("--move")).transpose()?;
+    let cells = args.cell.iter().map(|s| parse_cell_spec(s)).collect::<anyhow::Result<_>>()?;
+    Ok(Checked { params, variants, shift, cells })
 }
 
 fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<Outcome> {
-    let Checked { params, variants, shift } = checked;
+    let Checked { params, variants, shift, cells: specs } = checked;
     let (scene, level) = scene::load(&args.input, args.scene_seed)?;
     if scene.triangles.is_empty() {
         bail!("{}: no triangles in the whole file", args.input);
     }
     let mut cells = Vec::new();
-    for spec in &args.cell {
-        cells.extend(parse_cells(spec, &scene, level.as_ref())?);
+    for spec in &specs {
+        cells.extend(cells_of(spec, &scene, level.as_ref())?);
     }
     if let Some(k) = args.max_cells
         && k < cells.len()
@@ -606,33 +629,56 @@ fn parse_floats(s: &str) -> anyhow::Result<Vec<f32>> {
         .collect()
 }
 
-/// Cells from one `--cell` argument.
-fn parse_cells(
-    spec: &str,
+/// One `--cell` argument, parsed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum CellSpec {
+    /// `auto`: the generated scene's suggestion.
+    Auto,
+    /// `leaves`: a level's open leaves.
+    Leaves,
+    /// A grid of cubes of this side (positive).
+    Grid(f32),
+    /// One box `x0,y0,z0,x1,y1,z1`.
+    Box(Vec3, Vec3),
+}
+
+/// Parses one `--cell` argument (errors name the flag).
+fn parse_cell_spec(spec: &str) -> anyhow::Result<CellSpec> {
+    Ok(match spec {
+        "auto" => CellSpec::Auto,
+        "leaves" => CellSpec::Leaves,
+        _ => {
+            let v = parse_floats(spec).with_context(|| format!("--cell {spec}"))?;
+            match v[..] {
+                [size] if size > 0.0 => CellSpec::Grid(size),
+                [x0, y0, z0, x1, y1, z1] => CellSpec::Box(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1)),
+                _ => bail!("--cell {spec}: expected auto, leaves, a positive size or x0,y0,z0,x1,y1,z1"),
+            }
+        }
+    })
+}
+
+/// The cells of one `--cell` argument.
+fn cells_of(
+    spec: &CellSpec,
     scene: &TriScene,
     level: Option<&sightline_formats::Level>,
 ) -> anyhow::Result<Vec<Cell>> {
-    match spec {
-        "auto" => {
+    match *spec {
+        CellSpec::Auto => {
             if scene.suggested.is_empty() {
                 bail!("`--cell auto` needs a generated scene; give a size, `leaves` or a box");
             }
             Ok(scene.suggested.clone())
         }
-        "leaves" => {
+        CellSpec::Leaves => {
             let Some(level) = level else {
                 bail!("`--cell leaves` needs a level input (.slvl or .bsp)");
             };
             Ok(scene::leaf_cells(level, 1.0))
         }
-        _ => {
-            let v = parse_floats(spec)?;
-            match v[..] {
-                [size] => Ok(cells::grid(&scene.bounds(), size)?),
-                [x0, y0, z0, x1, y1, z1] => Ok(vec![Cell::new(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1))]),
-                _ => bail!("`--cell {spec}`: expected auto, leaves, a size or x0,y0,z0,x1,y1,z1"),
-            }
-        }
+        CellSpec::Grid(size) => Ok(cells::grid(&scene.bounds(), size).context("--cell")?),
+        CellSpec::Box(min, max) => Ok(vec![Cell::new(min, max)]),
     }
 }
 
@@ -684,9 +730,16 @@ mod tests {
             &["--adt", "inf"],
             &["--variant", "nope"],
             &["--compare", "--move", "1,NaN,0"],
+            &["--max-depth", "0"],
+            &["--cell", "0"],
+            &["--cell", "1,2"],
+            &["--cell", "1,inf,0,1,1,1"],
+            &["--probe-rays", "4294967295"],
         ] {
-            let a = args(&[&["gen:spheres:10"][..], bad].concat());
-            assert!(check(&a).is_err(), "{bad:?} accepted");
+            // Refused when parsed (the range of the flag) or when checked (what clap cannot say).
+            let line = [&["gvs", "gen:spheres:10"][..], bad].concat();
+            let refused = Cli::try_parse_from(line).map_or(true, |c| check(&c.args).is_err());
+            assert!(refused, "{bad:?} accepted");
         }
         let ok = check(&args(&["gen:spheres:10", "--compare", "--move", "1,0,0", "--eps", "0.01"]));
         assert!(ok.is_ok_and(|c| c.variants.len() == Variant::ALL.len() && c.shift == Some(Vec3::X)));

@@ -211,11 +211,13 @@ pub enum PortalFileStatus {
 }
 
 impl PortalFileStatus {
-    /// The status of the `.prt` beside the level at `path` that records `recorded`.
+    /// The status of the `.prt` beside the level at `path` that records `recorded` (read as every
+    /// input is: something there that is no regular file is not the one written with it).
     fn of(path: &Path, recorded: Option<u64>) -> Self {
         let Some(recorded) = recorded else { return Self::NotRecorded };
-        match std::fs::read(path.with_extension("prt")) {
-            Err(_) => Self::Missing,
+        match sightline_job::input::read_input(&path.with_extension("prt")) {
+            Err(e) if e.is_not_found() => Self::Missing,
+            Err(_) => Self::Differs,
             Ok(bytes) if prt::fingerprint(&bytes) == recorded => Self::Matches,
             Ok(_) => Self::Differs,
         }
@@ -234,7 +236,7 @@ impl PortalFileStatus {
 /// Read `path` and build its report.
 pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {name}"))?;
+    let bytes = sightline_job::input::read_input(path)?;
     let kind = FileKind::detect(path, &bytes)
         .with_context(|| format!("{name}: unknown file kind (expected .map, .obj, .prt, .bsp or .slvl)"))?;
     let details = match kind {

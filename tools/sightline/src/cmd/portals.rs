@@ -81,8 +81,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = &args.input;
     let output = args.output.clone().unwrap_or_else(|| path.with_extension("prt"));
-    crate::output::check_apart(&[path], &[&output])?;
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = sightline_job::input::read_input(path)?;
+    crate::output::check(&[path], &[&output])?;
     let file = bsp::read(&bytes).with_context(|| format!("{}: invalid BSP", path.display()))?;
     let t1 = Instant::now();
     let opts = BspPortalOptions { liquids: args.water.into(), no_clusters: args.no_clusters };

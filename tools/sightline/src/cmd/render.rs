@@ -7,6 +7,7 @@
 //! allowed), so a leaking map can be drawn with the leak path its compile found (`--leak` without
 //! a file). Pictures of a `.map` have no PVS (everything visible).
 
+use std::ops::Bound::Excluded;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -14,7 +15,9 @@ use glam::DVec3;
 
 use sightline_compiler::{CompileOptions, NoProgress, Source, compile};
 use sightline_formats::Level;
+use sightline_job::input::read_input;
 
+use crate::limits::{self, MAX_RAYS};
 use crate::outcome::Outcome;
 use crate::progress::Bars;
 use sightline_validate::bsp::BspTree;
@@ -41,12 +44,12 @@ pub struct Args {
     /// View angles `yaw,pitch` in degrees (yaw from +x towards +y, pitch positive up).
     #[arg(long, value_name = "YAW,PITCH", allow_hyphen_values = true)]
     pub look: Option<String>,
-    /// Horizontal field of view in degrees.
-    #[arg(long, default_value_t = 90.0)]
+    /// Horizontal field of view in degrees, in (0, 179).
+    #[arg(long, default_value_t = 90.0, value_parser = limits::float_in::<f64>((Excluded(0.0), Excluded(179.0)), "a field of view in degrees"))]
     pub fov: f64,
-    /// Image size `WxH` of a view (a plan uses W and its own aspect).
-    #[arg(long, default_value = "640x480")]
-    pub size: String,
+    /// Image size `WxH` of a view, each side 1 to 8192 (a plan uses W and its own aspect).
+    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = size)]
+    pub size: (u32, u32),
     /// In a view, paint anything outside the eye cluster's PVS bright red (exit 1 if any).
     #[arg(long)]
     pub pvs: bool,
@@ -72,7 +75,7 @@ pub struct Args {
     pub pvs_matrix: bool,
     /// With `--pvs-matrix`: sample this many rays (tree oracle, as `validate`) and colour the
     /// pairs they prove green, the other PVS pairs grey and sampled pairs missing from the PVS red.
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
     pub rays: Option<u64>,
 }
 
@@ -83,7 +86,7 @@ fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>
         return Ok((load::load_level(path)?, None));
     }
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("reading {name}"))?;
+    let bytes = read_input(path)?;
     let map = sightline_formats::map::parse_bytes(&bytes, &name)?;
     let opts = CompileOptions { allow_leak: true, ..CompileOptions::default() };
     let compiled = compile(&Source::Map { map, file: name }, &opts, &NoProgress)?;
@@ -114,15 +117,25 @@ fn pair(s: &str, sep: &str, what: &str) -> anyhow::Result<(f64, f64)> {
     Ok((a, b))
 }
 
-/// Parse `WxH`.
-fn size(s: &str) -> anyhow::Result<(u32, u32)> {
-    let (w, h) = s.split_once('x').with_context(|| format!("--size `{s}`: expected WxH"))?;
-    let (w, h): (u32, u32) = (w.parse()?, h.parse()?);
-    if w == 0 || h == 0 || w > 8192 || h > 8192 {
-        bail!("--size `{s}`: each side must be in 1..=8192");
+/// Parse `WxH` (`--size`), each side in `1..=MAX_SIDE`.
+fn size(s: &str) -> Result<(u32, u32), String> {
+    let side = |t: &str| t.trim().parse::<u32>().ok().filter(|v| (1..=MAX_SIDE).contains(v));
+    match s.split_once('x').map(|(w, h)| (side(w), side(h))) {
+        Some((Some(w), Some(h))) => Ok((w, h)),
+        _ => Err(format!("`{s}` is not WxH with each side in 1..={MAX_SIDE}")),
     }
-    Ok((w, h))
 }
+
+/// Widest and tallest picture (the renderers' limit).
+const MAX_SIDE: u32 = 8192;
+
+/// Widest PVS matrix picture.
+const MATRIX_SIDE: u32 = 2048;
+
+/// Bytes a picture takes per pixel while it is drawn and encoded: the rows with the leaf each
+/// pixel shows (12), the image (3), the leaf of each pixel (8), the PNG's raw and compressed rows
+/// (at most 8).
+const BYTES_PER_PIXEL: u64 = 32;
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
@@ -130,21 +143,36 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if modes.iter().filter(|&&m| m).count() != 1 {
         bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
     }
+    // Every number first, then the memory the picture takes, then the files: all before any work.
+    let (w, h) = args.size;
+    let (yaw, pitch) =
+        args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
+    let eye = args.view.as_deref().map(|s| vec3(s, "--view")).transpose()?;
+    let from = args.from.as_deref().map(|s| vec3(s, "--from")).transpose()?;
+    let slab = args.z.as_deref().map(|s| pair(s, "..", "--z")).transpose()?;
+    // A plan is W wide and as tall as the level's aspect makes it (at most MAX_SIDE); the matrix
+    // is at most 2048 square.
+    let pixels = if eye.is_some() {
+        u64::from(w) * u64::from(h)
+    } else if args.pvs_matrix {
+        u64::from(w.max(h).min(MATRIX_SIDE)).pow(2)
+    } else {
+        u64::from(w) * u64::from(MAX_SIDE)
+    };
+    let threads = rayon::current_num_threads();
+    limits::fits_memory(&format!("a picture of --size {w}x{h}"), pixels * BYTES_PER_PIXEL, threads)?;
     let leak_file = args.leak.as_deref().filter(|l| !l.is_empty()).map(Path::new);
     let inputs: Vec<&Path> =
         [Some(args.input.as_path()), args.prt.as_deref(), leak_file].into_iter().flatten().collect();
-    crate::output::check_apart(&inputs, &[&args.output])?;
+    crate::output::check(&inputs, &[&args.output])?;
     let (level, compiled_leak) = load_any(&args.input)?;
     // Errors about the level name its file (the libraries only see the level).
     let file = || args.input.display().to_string();
     let tree = BspTree::new(&level).with_context(file)?;
     let pvs = pvs::level_pvs(&level).with_context(file)?;
-    let (w, h) = size(&args.size)?;
-    let (yaw, pitch) =
-        args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
     let mut outcome = Outcome::Clean;
-    let image = if let Some(eye) = &args.view {
-        let camera = Camera { eye: vec3(eye, "--view")?, yaw, pitch, fov: args.fov, width: w, height: h };
+    let image = if let Some(eye) = eye {
+        let camera = Camera { eye, yaw, pitch, fov: args.fov, width: w, height: h };
         let v = render_view(&tree, &camera, args.pvs.then_some(&pvs))?;
         println!(
             "eye leaf {} (cluster {}), {} leaves shown, {} red pixels",
@@ -179,22 +207,21 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             None => None,
         };
-        matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(2048))
+        matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE))
     } else {
-        let from = args.from.as_deref().map(|s| vec3(s, "--from")).transpose()?;
         let leak = match &args.leak {
             Some(p) if p.is_empty() => {
                 compiled_leak.context("--leak without a file needs a leaking .map as input")?
             }
             Some(p) => {
-                let bytes = std::fs::read(p).with_context(|| format!("reading {p}"))?;
+                let bytes = read_input(Path::new(p))?;
                 read_pointfile(&String::from_utf8_lossy(&bytes), p)?
             }
             None => Vec::new(),
         };
         let centre_z = from.or(leak.first().copied()).map_or(0.0, |p| p.z);
-        let z = match &args.z {
-            Some(s) => pair(s, "..", "--z")?,
+        let z = match slab {
+            Some(z) => z,
             None if from.is_none() && leak.is_empty() => (-1e5, 1e5),
             // A leaking level has open void around it: a thin slab keeps its walls visible.
             None if from.is_none() => (centre_z - 8.0, centre_z + 8.0),
@@ -210,7 +237,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             .map(|v| v.iter().map(|c| DVec3::from(c.map(f64::from))).collect())
             .collect();
         if let Some(prt) = &args.prt {
-            let bytes = std::fs::read(prt).with_context(|| format!("reading {}", prt.display()))?;
+            let bytes = read_input(prt)?;
             let file = sightline_formats::prt::read_bytes(&bytes, &prt.display().to_string())?;
             portals.extend(file.portals.into_iter().map(|p| p.winding.points));
         }

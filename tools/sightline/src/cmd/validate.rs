@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 
+use crate::limits::{self, MAX_RAYS};
 use crate::outcome::Outcome;
 use crate::progress::Bars;
 use sightline_validate::{self as validate, DEFAULT_OFFSET, DEFAULT_RAYS, Options, OracleChoice, load, pvs};
@@ -38,18 +39,19 @@ pub struct Args {
     pub input: std::path::PathBuf,
     /// Ray budget per oracle, spread evenly over the open leaves (10 rays per bundle: 5 lines
     /// cast both ways); at least 1 (every open leaf gets at least one bundle, so a small budget
-    /// still casts rays from each).
-    #[arg(long, default_value_t = DEFAULT_RAYS, value_parser = clap::value_parser!(u64).range(1..))]
+    /// still casts rays from each); at most 10^12.
+    #[arg(long, default_value_t = DEFAULT_RAYS, value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
     pub rays: u64,
     /// Seed of the random streams (results are identical for any thread count).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Worker threads (0: one per core).
-    #[arg(long, default_value_t = 0)]
+    /// Worker threads, 0 to 1024 (0: one per core).
+    #[arg(long, default_value_t = 0, value_parser = limits::threads_or_auto())]
     pub threads: usize,
-    /// Bundle offset in world units: each bundle is a centre line and four lines this far from it,
-    /// and a leaf counts only when all five reach it. 0 casts single lines (reports crack noise).
-    #[arg(long, default_value_t = DEFAULT_OFFSET)]
+    /// Bundle offset in world units, in [0, 64): each bundle is a centre line and four lines this
+    /// far from it, and a leaf counts only when all five reach it. 0 casts single lines (reports
+    /// crack noise).
+    #[arg(long, default_value_t = DEFAULT_OFFSET, value_parser = limits::float_in::<f64>(0.0..64.0, "an offset in world units"))]
     pub offset: f64,
     /// Which oracle to sample against: the BSP tree, the face mesh (BVH), or both.
     #[arg(long, value_enum, default_value_t = OracleArg::Both)]
@@ -61,9 +63,6 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    if !(args.offset >= 0.0 && args.offset < 64.0) {
-        anyhow::bail!("--offset must be in [0, 64) world units, got {}", args.offset);
-    }
     let level = load::load_level(&args.input)?;
     // Errors about the level name its file (the library only sees the level).
     let file = || args.input.display().to_string();
@@ -85,7 +84,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         oracle: oracle.into(),
         cancel: crate::interrupt::cancel(),
     };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let pool = limits::pool(args.threads)?;
     let mut v =
         pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;
     v.report.input = args.input.display().to_string();

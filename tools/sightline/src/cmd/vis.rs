@@ -41,9 +41,9 @@ pub struct Args {
     /// A Quake, Half-Life or Quake 2 `.bsp` (its `.prt` must sit beside it), a base name (`e1m1`
     /// for `e1m1.bsp`), or a `.prt` file.
     pub input: PathBuf,
-    /// Worker threads (0: every core, or one for a map small enough to take milliseconds). The
-    /// result is the same for any count.
-    #[arg(long, default_value_t = 0)]
+    /// Worker threads, 0 to 1024 (0: every core, or one for a map small enough to take
+    /// milliseconds). The result is the same for any count.
+    #[arg(long, default_value_t = 0, value_parser = crate::limits::threads_or_auto())]
     pub threads: usize,
     /// Vis options.
     #[command(flatten)]
