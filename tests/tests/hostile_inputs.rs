@@ -1,6 +1,8 @@
 //! Hostile input: thousands of mutated files (truncations, bit flips, random bytes, huge counts
 //! spliced into headers, shuffled chunks) for every reader, asserting that none panics and that
-//! none allocates beyond a bound linear in the input.
+//! none allocates beyond a bound linear in the input. The real binary gets the same mutated files
+//! (`binary`), special files as inputs and outputs that would replace its inputs (`outputs`), and
+//! every numeric flag out of its range (`arguments`).
 //!
 //! A counting global allocator tracks, per thread, the bytes currently allocated and the peak
 //! since the last reset, so tests running on other threads do not disturb a measurement.
@@ -57,10 +59,14 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
+#[path = "hostile_inputs/arguments.rs"]
+mod arguments;
 #[path = "hostile_inputs/binary.rs"]
 mod binary;
 #[path = "hostile_inputs/memory.rs"]
 mod memory;
+#[path = "hostile_inputs/outputs.rs"]
+mod outputs;
 #[path = "hostile_inputs/paired.rs"]
 mod paired;
 #[path = "hostile_inputs/signals.rs"]

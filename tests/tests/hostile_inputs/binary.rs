@@ -27,9 +27,9 @@ use sightline_job::rng::SplitMix64 as Rng;
 use sightline_tests::{mutate, sightline_binary as binary};
 
 /// A run taking longer than this is a hang.
-const TIMEOUT: Duration = Duration::from_secs(20);
+pub(crate) const TIMEOUT: Duration = Duration::from_secs(20);
 /// Address space a run may reserve (`RLIMIT_AS`), threads' stacks included.
-const MEMORY: u64 = 512 << 20;
+pub(crate) const MEMORY: u64 = 512 << 20;
 /// Mutations per format.
 const MUTATIONS: usize = 96;
 /// Words that name a place in a file, besides numbers ("whole file" for what only the file as a
@@ -112,10 +112,32 @@ fn seeds_dir() -> PathBuf {
     dir
 }
 
+/// Whether util-linux `prlimit` runs here (without it, runs are not memory-bounded).
+pub(crate) fn have_prlimit() -> bool {
+    let ok = Command::new("prlimit").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("note: util-linux prlimit not found: runs are not memory-bounded");
+    }
+    ok
+}
+
 /// Runs the binary in `dir` and waits (killing it past [`TIMEOUT`]); `None` on a timeout.
+/// Its output goes to `stdout.txt` and `stderr.txt` in `dir`.
 fn run(bin: &Path, prlimit: bool, args: &[String], dir: &Path) -> Option<ExitStatus> {
-    let out = File::create(dir.join("stdout.txt")).expect("stdout file");
-    let err = File::create(dir.join("stderr.txt")).expect("stderr file");
+    run_logged(bin, prlimit, args, dir, dir)
+}
+
+/// [`run`] with the output in `logs` (so that the folder the run works in gets no file of the
+/// test's): `stdout.txt` and `stderr.txt`. Under `prlimit` the address space is [`MEMORY`].
+pub(crate) fn run_logged(
+    bin: &Path,
+    prlimit: bool,
+    args: &[String],
+    dir: &Path,
+    logs: &Path,
+) -> Option<ExitStatus> {
+    let out = File::create(logs.join("stdout.txt")).expect("stdout file");
+    let err = File::create(logs.join("stderr.txt")).expect("stderr file");
     let mut cmd = if prlimit {
         let mut c = Command::new("prlimit");
         c.arg(format!("--as={MEMORY}")).arg("--").arg(bin);
@@ -353,10 +375,7 @@ fn formats(bin: &Path, dir: &Path) -> Vec<Format> {
 fn every_command_on_every_format_exits_0_1_or_2_naming_file_and_place() {
     let bin = binary();
     let dir = seeds_dir();
-    let prlimit = Command::new("prlimit").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !prlimit {
-        eprintln!("note: util-linux prlimit not found: runs are not memory-bounded");
-    }
+    let prlimit = have_prlimit();
     let formats = formats(&bin, &dir);
     // Every job: (format, mutation index, mutated bytes, command), drawn in order from one stream
     // per format so the set does not depend on thread timing.
