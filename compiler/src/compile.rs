@@ -120,7 +120,10 @@ fn compile_here(
 
     let outside_phase = phase(progress, "outside", 1);
     if let Some(cover) = &cover {
-        let opened = cover.open_unenclosed(&mut tree, &prep.planes, &graph);
+        let opened = cover
+            .open_unenclosed(&mut tree, &prep.planes, &graph, cancel)
+            .map_err(|_| CompileError::Cancelled { phase: "outside" })?;
+        prep.stats.cover_tests = opened.tests;
         if opened.cells > 0 {
             prep.stats.warnings.push(format!(
                 "{file}: {} cells behind triangles are not enclosed by the mesh and were left open \

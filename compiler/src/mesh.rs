@@ -32,6 +32,8 @@ use crate::error::CompileError;
 use crate::prepared::{OUTSIDE_MARGIN, Prepared};
 use crate::report::Stats;
 
+mod box_tree;
+mod cover;
 mod edges;
 mod seal;
 
@@ -353,5 +355,48 @@ mod tests {
             ["room.obj: 3 faces with fewer than 3 vertices skipped (points and lines have no area)"]
         );
         assert_eq!(out.level, plain.level);
+    }
+
+    /// Cover tests and triangles of a compile of `obj` text.
+    fn cover_tests(obj: &str) -> (u64, usize) {
+        let tri = sightline_formats::obj::load_from_bytes(obj.as_bytes(), "shape.obj").expect("loads");
+        let src = Source::Mesh { mesh: (&tri).into(), file: "shape.obj".into() };
+        let opts = CompileOptions { vis: None, ..CompileOptions::default() };
+        let out = compile(&src, &opts, &NoProgress).expect("compiles");
+        (out.stats.cover_tests, tri.triangles.len())
+    }
+
+    #[test]
+    fn the_seal_check_grows_near_linearly_with_coplanar_triangles() {
+        use sightline_tests::coplanar::{Floor, grid_obj, polygon_obj, prism_obj, room_obj, scattered_obj};
+        // Every portal on a plane was once tested against every triangle on it, and every leftover
+        // piece cut by every later triangle: the work grew with the cube of the triangles. Now it
+        // grows no faster than n log n from n to 4n, and stays within a few tests a triangle.
+        type Shape = (&'static str, fn(u32) -> String);
+        let shapes: [Shape; 8] = [
+            ("polygon", polygon_obj),
+            ("prism", prism_obj),
+            ("scattered", |n| scattered_obj(n, 1)),
+            ("grid", grid_obj),
+            ("room grid", |n| room_obj(Floor::Grid, n)),
+            ("room shuffled", |n| room_obj(Floor::Shuffled(1), n)),
+            ("room crossed strips", |n| room_obj(Floor::CrossedStrips, n)),
+            ("room fan", |n| room_obj(Floor::Fan, n)),
+        ];
+        let n = 150u32;
+        let log_growth = 4.0 * f64::from(4 * n).log2() / f64::from(n).log2();
+        for (name, make) in shapes {
+            let (small, small_tris) = cover_tests(&make(n));
+            let (large, large_tris) = cover_tests(&make(4 * n));
+            assert!(
+                large as f64 <= log_growth * small as f64 + 16.0,
+                "{name}: {small} tests for {small_tris} triangles, {large} for {large_tris}"
+            );
+            assert!(large <= 8 * large_tris as u64, "{name}: {large} tests for {large_tris} triangles");
+            if name.starts_with("room") || name == "prism" {
+                // Closed: the covered portals' triangles are all looked at.
+                assert!(large >= large_tris as u64 / 2, "{name}: {large} tests for {large_tris} triangles");
+            }
+        }
     }
 }

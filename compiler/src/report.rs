@@ -48,6 +48,9 @@ pub struct Stats {
     pub clusters: usize,
     /// Leaves the outside fill turned solid.
     pub filled_leaves: usize,
+    /// Triangle-against-portal tests of the check that a mesh's solid cells are enclosed (0 for
+    /// a map): the work of that check, which grows near-linearly with the triangles.
+    pub cover_tests: u64,
     /// Phase times in order.
     pub phases: Vec<PhaseTime>,
     /// Things worth knowing that did not stop the compile.
