@@ -21,7 +21,7 @@ pub struct PhaseTime {
 /// Counts and times of a compile.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Stats {
-    /// Brushes in the source (all entities).
+    /// Brushes compiled: every entity's, but those of TrenchBroom layers omitted from export.
     pub brushes: usize,
     /// Structural world brushes that built the tree.
     pub world_brushes: usize,
