@@ -70,7 +70,7 @@ fn compile_here(
     let (file, mut prep, mesh_tree) = match source {
         Source::Map { map, file } => (file.as_str(), load::load_map(map, file, progress, cancel)?, None),
         Source::Mesh { mesh, file } => {
-            let (prep, tree) = mesh::prepare(mesh, file, progress)?;
+            let (prep, tree) = mesh::prepare(mesh, file, progress, cancel)?;
             (file.as_str(), prep, Some(tree))
         }
     };

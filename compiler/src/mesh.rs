@@ -23,6 +23,7 @@
 use glam::DVec3;
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
 use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
+use sightline_job::cancel::Cancel;
 use sightline_job::progress::{Progress, phase};
 
 use crate::brush::Brush;
@@ -67,10 +68,13 @@ struct Poly {
     winding: Winding,
 }
 
+/// The prepared mesh and its tree. Once `cancel` is set, the polygon BSP stops splitting (its
+/// unsplit nodes become leaves): the caller checks `cancel` and discards the result.
 pub(crate) fn prepare(
     mesh: &Mesh,
     file: &str,
     progress: &dyn Progress,
+    cancel: &Cancel,
 ) -> Result<(Prepared, MeshTree), CompileError> {
     let csg = phase(progress, "csg", mesh.triangles.len() as u64);
     let mut planes = PlaneSet::new();
@@ -114,7 +118,7 @@ pub(crate) fn prepare(
         faces.push(face(p.plane ^ 1, p.winding.reversed()));
     }
     let mut tree = Tree::default();
-    enclose(&planes, polys, volume, &sides, &mut tree.nodes, &mut cover.boundary);
+    enclose(&planes, polys, volume, &sides, &mut tree.nodes, &mut cover.boundary, cancel);
     let mut stats = Stats { brushes: 0, csg_faces: faces.len(), ..Stats::default() };
     if mesh.skipped_faces > 0 {
         stats.warnings.push(format!(
@@ -177,14 +181,15 @@ fn enclose(
     sides: &[u32],
     out: &mut Vec<TreeNode>,
     boundary: &mut Vec<u32>,
+    cancel: &Cancel,
 ) -> u32 {
     let Some((&side, rest)) = sides.split_first() else {
-        return build_r(planes, polys, volume, Contents::Empty, out);
+        return build_r(planes, polys, volume, Contents::Empty, out, cancel);
     };
     let plane = side & !1;
     let (Some(front), Some(back)) = volume.split(planes, plane) else {
         // The volume lies a margin beyond the box on every side, so this plane always cuts it.
-        return enclose(planes, polys, volume, rest, out, boundary);
+        return enclose(planes, polys, volume, rest, out, boundary, cancel);
     };
     let index = out.len() as u32;
     out.push(TreeNode::Node { plane, children: [0, 0], bounds: volume.bounds, detail: false });
@@ -196,9 +201,9 @@ fn enclose(
     // Pre-order with the front child first.
     let children = if side == plane {
         let f = solid(front.bounds, out, boundary);
-        [f, enclose(planes, polys, back, rest, out, boundary)]
+        [f, enclose(planes, polys, back, rest, out, boundary, cancel)]
     } else {
-        let f = enclose(planes, polys, front, rest, out, boundary);
+        let f = enclose(planes, polys, front, rest, out, boundary, cancel);
         [f, solid(back.bounds, out, boundary)]
     };
     if let Some(TreeNode::Node { children: c, .. }) = out.get_mut(index as usize) {
@@ -252,10 +257,11 @@ fn build_r(
     volume: Brush,
     empty_side: Contents,
     out: &mut Vec<TreeNode>,
+    cancel: &Cancel,
 ) -> u32 {
     let index = out.len() as u32;
     let bounds = volume.bounds;
-    if polys.is_empty() {
+    if polys.is_empty() || cancel.is_cancelled() {
         out.push(TreeNode::Leaf { contents: empty_side, bounds });
         return index;
     }
@@ -284,16 +290,16 @@ fn build_r(
     match (vf, vb) {
         (Some(vf), Some(vb)) => {
             out.push(TreeNode::Node { plane, children: [0, 0], bounds, detail: false });
-            let f = build_r(planes, front, vf, front_side, out);
-            let k = build_r(planes, back, vb, back_side, out);
+            let f = build_r(planes, front, vf, front_side, out, cancel);
+            let k = build_r(planes, back, vb, back_side, out, cancel);
             if let Some(TreeNode::Node { children, .. }) = out.get_mut(index as usize) {
                 *children = [f, k];
             }
             index
         }
         // The plane misses the volume: only one side exists here.
-        (Some(v), None) => build_r(planes, front, v, front_side, out),
-        (None, Some(v)) => build_r(planes, back, v, back_side, out),
+        (Some(v), None) => build_r(planes, front, v, front_side, out, cancel),
+        (None, Some(v)) => build_r(planes, back, v, back_side, out, cancel),
         (None, None) => {
             out.push(TreeNode::Leaf { contents: empty_side, bounds });
             index
