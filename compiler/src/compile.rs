@@ -85,7 +85,7 @@ fn compile_here(
         Source::Mesh { mesh, file } => {
             let triangles = mesh.triangles.len();
             memory.check("csg", per(MESH_PER_TRIANGLE, triangles), || format!("{triangles} triangles"))?;
-            let (prep, tree) = mesh::prepare(mesh, file, progress)?;
+            let (prep, tree) = mesh::prepare(mesh, file, progress, cancel)?;
             (file.as_str(), prep, Some(tree))
         }
     };
@@ -143,7 +143,10 @@ fn compile_here(
 
     let outside_phase = phase(progress, "outside", 1);
     if let Some(cover) = &cover {
-        let opened = cover.open_unenclosed(&mut tree, &prep.planes, &graph);
+        let opened = cover
+            .open_unenclosed(&mut tree, &prep.planes, &graph, cancel)
+            .map_err(|_| CompileError::Cancelled { phase: "outside" })?;
+        prep.stats.cover_tests = opened.tests;
         if opened.cells > 0 {
             prep.stats.warnings.push(format!(
                 "{file}: {} cells behind triangles are not enclosed by the mesh and were left open \

@@ -16,6 +16,7 @@ mod csg;
 pub mod dropin;
 mod emit;
 mod error;
+mod layers;
 mod load;
 pub mod memory;
 pub mod mesh;

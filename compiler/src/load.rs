@@ -17,6 +17,7 @@ use crate::csg::{CsgBrush, Surface, clip_faces};
 use crate::outside::Seed;
 
 use crate::error::CompileError;
+use crate::layers;
 use crate::prepared::Prepared;
 use crate::report::Stats;
 use crate::source::Source;
@@ -68,7 +69,11 @@ pub(crate) fn load_map(
             classname: first.classname().to_string(),
         });
     }
-    let total: usize = map.entities.iter().map(|e| e.brushes.len()).sum();
+    let omitted = layers::omitted(map);
+    if let Some(note) = omitted.note() {
+        progress.note(&format!("{file}: {note}"));
+    }
+    let total: usize = map.entities.iter().map(|e| e.brushes.len()).sum::<usize>() - omitted.brushes;
     let csg = phase(progress, "csg", total as u64);
 
     let mut planes = PlaneSet::new();
@@ -86,6 +91,12 @@ pub(crate) fn load_map(
     let mut stats = Stats { brushes: total, ..Stats::default() };
 
     for (ei, e) in map.entities.iter().enumerate() {
+        // An entity of a layer omitted from export is not compiled; worldspawn keeps its keys.
+        let left_out = omitted.entities.get(ei).copied().unwrap_or(false);
+        if left_out && ei > 0 {
+            continue;
+        }
+        let brushes = if left_out { &[][..] } else { &e.brushes[..] };
         let role = entity_role(e.classname(), !e.brushes.is_empty());
         if ei > 0
             && let Some(text) = e.get("origin")
@@ -117,7 +128,7 @@ pub(crate) fn load_map(
             // World, func_group and detail entities merge into the world and leave no text.
             entity_text(&mut entities, e, model);
         }
-        for (bi, b) in e.brushes.iter().enumerate() {
+        for (bi, b) in brushes.iter().enumerate() {
             csg.advance(1);
             if cancel.is_cancelled() {
                 return Err(CompileError::Cancelled { phase: "csg" });

@@ -23,6 +23,7 @@
 use glam::DVec3;
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
 use sightline_formats::{Aabb, Contents, Plane, PlaneSet, Side, Winding};
+use sightline_job::cancel::Cancel;
 use sightline_job::progress::{Progress, phase};
 
 use crate::brush::Brush;
@@ -32,6 +33,8 @@ use crate::error::CompileError;
 use crate::prepared::{OUTSIDE_MARGIN, Prepared};
 use crate::report::Stats;
 
+mod box_tree;
+mod cover;
 mod edges;
 mod seal;
 
@@ -65,10 +68,13 @@ struct Poly {
     winding: Winding,
 }
 
+/// The prepared mesh and its tree. Once `cancel` is set, the polygon BSP stops splitting (its
+/// unsplit nodes become leaves): the caller checks `cancel` and discards the result.
 pub(crate) fn prepare(
     mesh: &Mesh,
     file: &str,
     progress: &dyn Progress,
+    cancel: &Cancel,
 ) -> Result<(Prepared, MeshTree), CompileError> {
     let csg = phase(progress, "csg", mesh.triangles.len() as u64);
     let mut planes = PlaneSet::new();
@@ -112,7 +118,7 @@ pub(crate) fn prepare(
         faces.push(face(p.plane ^ 1, p.winding.reversed()));
     }
     let mut tree = Tree::default();
-    enclose(&planes, polys, volume, &sides, &mut tree.nodes, &mut cover.boundary);
+    enclose(&planes, polys, volume, &sides, &mut tree.nodes, &mut cover.boundary, cancel);
     let mut stats = Stats { brushes: 0, csg_faces: faces.len(), ..Stats::default() };
     if mesh.skipped_faces > 0 {
         stats.warnings.push(format!(
@@ -175,14 +181,15 @@ fn enclose(
     sides: &[u32],
     out: &mut Vec<TreeNode>,
     boundary: &mut Vec<u32>,
+    cancel: &Cancel,
 ) -> u32 {
     let Some((&side, rest)) = sides.split_first() else {
-        return build_r(planes, polys, volume, Contents::Empty, out);
+        return build_r(planes, polys, volume, Contents::Empty, out, cancel);
     };
     let plane = side & !1;
     let (Some(front), Some(back)) = volume.split(planes, plane) else {
         // The volume lies a margin beyond the box on every side, so this plane always cuts it.
-        return enclose(planes, polys, volume, rest, out, boundary);
+        return enclose(planes, polys, volume, rest, out, boundary, cancel);
     };
     let index = out.len() as u32;
     out.push(TreeNode::Node { plane, children: [0, 0], bounds: volume.bounds, detail: false });
@@ -194,9 +201,9 @@ fn enclose(
     // Pre-order with the front child first.
     let children = if side == plane {
         let f = solid(front.bounds, out, boundary);
-        [f, enclose(planes, polys, back, rest, out, boundary)]
+        [f, enclose(planes, polys, back, rest, out, boundary, cancel)]
     } else {
-        let f = enclose(planes, polys, front, rest, out, boundary);
+        let f = enclose(planes, polys, front, rest, out, boundary, cancel);
         [f, solid(back.bounds, out, boundary)]
     };
     if let Some(TreeNode::Node { children: c, .. }) = out.get_mut(index as usize) {
@@ -250,10 +257,11 @@ fn build_r(
     volume: Brush,
     empty_side: Contents,
     out: &mut Vec<TreeNode>,
+    cancel: &Cancel,
 ) -> u32 {
     let index = out.len() as u32;
     let bounds = volume.bounds;
-    if polys.is_empty() {
+    if polys.is_empty() || cancel.is_cancelled() {
         out.push(TreeNode::Leaf { contents: empty_side, bounds });
         return index;
     }
@@ -282,16 +290,16 @@ fn build_r(
     match (vf, vb) {
         (Some(vf), Some(vb)) => {
             out.push(TreeNode::Node { plane, children: [0, 0], bounds, detail: false });
-            let f = build_r(planes, front, vf, front_side, out);
-            let k = build_r(planes, back, vb, back_side, out);
+            let f = build_r(planes, front, vf, front_side, out, cancel);
+            let k = build_r(planes, back, vb, back_side, out, cancel);
             if let Some(TreeNode::Node { children, .. }) = out.get_mut(index as usize) {
                 *children = [f, k];
             }
             index
         }
         // The plane misses the volume: only one side exists here.
-        (Some(v), None) => build_r(planes, front, v, front_side, out),
-        (None, Some(v)) => build_r(planes, back, v, back_side, out),
+        (Some(v), None) => build_r(planes, front, v, front_side, out, cancel),
+        (None, Some(v)) => build_r(planes, back, v, back_side, out, cancel),
         (None, None) => {
             out.push(TreeNode::Leaf { contents: empty_side, bounds });
             index
@@ -353,5 +361,48 @@ mod tests {
             ["room.obj: 3 faces with fewer than 3 vertices skipped (points and lines have no area)"]
         );
         assert_eq!(out.level, plain.level);
+    }
+
+    /// Cover tests and triangles of a compile of `obj` text.
+    fn cover_tests(obj: &str) -> (u64, usize) {
+        let tri = sightline_formats::obj::load_from_bytes(obj.as_bytes(), "shape.obj").expect("loads");
+        let src = Source::Mesh { mesh: (&tri).into(), file: "shape.obj".into() };
+        let opts = CompileOptions { vis: None, ..CompileOptions::default() };
+        let out = compile(&src, &opts, &NoProgress).expect("compiles");
+        (out.stats.cover_tests, tri.triangles.len())
+    }
+
+    #[test]
+    fn the_seal_check_grows_near_linearly_with_coplanar_triangles() {
+        use sightline_tests::coplanar::{Floor, grid_obj, polygon_obj, prism_obj, room_obj, scattered_obj};
+        // Every portal on a plane was once tested against every triangle on it, and every leftover
+        // piece cut by every later triangle: the work grew with the cube of the triangles. Now it
+        // grows no faster than n log n from n to 4n, and stays within a few tests a triangle.
+        type Shape = (&'static str, fn(u32) -> String);
+        let shapes: [Shape; 8] = [
+            ("polygon", polygon_obj),
+            ("prism", prism_obj),
+            ("scattered", |n| scattered_obj(n, 1)),
+            ("grid", grid_obj),
+            ("room grid", |n| room_obj(Floor::Grid, n)),
+            ("room shuffled", |n| room_obj(Floor::Shuffled(1), n)),
+            ("room crossed strips", |n| room_obj(Floor::CrossedStrips, n)),
+            ("room fan", |n| room_obj(Floor::Fan, n)),
+        ];
+        let n = 150u32;
+        let log_growth = 4.0 * f64::from(4 * n).log2() / f64::from(n).log2();
+        for (name, make) in shapes {
+            let (small, small_tris) = cover_tests(&make(n));
+            let (large, large_tris) = cover_tests(&make(4 * n));
+            assert!(
+                large as f64 <= log_growth * small as f64 + 16.0,
+                "{name}: {small} tests for {small_tris} triangles, {large} for {large_tris}"
+            );
+            assert!(large <= 8 * large_tris as u64, "{name}: {large} tests for {large_tris} triangles");
+            if name.starts_with("room") || name == "prism" {
+                // Closed: the covered portals' triangles are all looked at.
+                assert!(large >= large_tris as u64 / 2, "{name}: {large} tests for {large_tris} triangles");
+            }
+        }
     }
 }

@@ -21,7 +21,7 @@ pub struct PhaseTime {
 /// Counts and times of a compile.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Stats {
-    /// Brushes in the source (all entities).
+    /// Brushes compiled: every entity's, but those of TrenchBroom layers omitted from export.
     pub brushes: usize,
     /// Structural world brushes that built the tree.
     pub world_brushes: usize,
@@ -48,6 +48,9 @@ pub struct Stats {
     pub clusters: usize,
     /// Leaves the outside fill turned solid.
     pub filled_leaves: usize,
+    /// Triangle-against-portal tests of the check that a mesh's solid cells are enclosed (0 for
+    /// a map): the work of that check, which grows near-linearly with the triangles.
+    pub cover_tests: u64,
     /// Phase times in order.
     pub phases: Vec<PhaseTime>,
     /// Things worth knowing that did not stop the compile.

@@ -336,6 +336,82 @@ pub fn generate(params: &MapGenParams) -> String {
     out
 }
 
+/// [`generate`]'s map with a TrenchBroom layer in it, from [`generate_with_layer`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LayeredMap {
+    /// The map with the layer.
+    pub text: String,
+    /// The same map with the layer (its `func_group`, its groups and its entities) removed by
+    /// hand: [`generate`]'s text.
+    pub without_layer: String,
+    /// Brushes in the layer: its own, its groups' and its entities'.
+    pub layer_brushes: usize,
+    /// Entities in the layer, not counting the layer's and its groups' own `func_group`s.
+    pub layer_entities: usize,
+    /// 1-based line of the first entity in the layer that stands outside the sealed world.
+    pub outside_line: u32,
+}
+
+/// `_tb_id` of the layer [`generate_with_layer`] adds.
+pub const LAYER_ID: u32 = 1;
+
+/// [`generate`]'s map with a TrenchBroom layer `"scaffold"` (`_tb_id` [`LAYER_ID`], omitted from
+/// export when `omit`), as TrenchBroom saves one: a `func_group` with `"_tb_type" "_tb_layer"`
+/// right after `worldspawn`, holding a wall across the first room (16 units thick, floor to
+/// ceiling, 48 units to the −x of the player start); a `light` with `"_tb_layer"` 512 units
+/// beyond every brush (in the void); and a group in the layer (a pillar by the player start) holding
+/// a nested group (a floating cube) whose members are another `light` in the void and a
+/// `func_wall` (a low block beyond the wall). Compiled, the layer splits the room and leaks.
+pub fn generate_with_layer(params: &MapGenParams, omit: bool) -> LayeredMap {
+    let layout = layout(params);
+    let without_layer = generate(params);
+    let room = layout.rooms[0];
+    let [px, py, _] = layout.player_start;
+    let (x, y) = (px - 8, py - 8);
+    let (floor, ceiling) = (room.lo[2], room.hi[2]);
+    let beyond = layout.brushes.iter().map(|b| b.hi[0]).max().unwrap_or(0) + 512;
+    let omit_key = if omit { "\"_tb_layer_omit_from_export\" \"1\"\n" } else { "" };
+    let mut layer = format!(
+        "{{\n\"classname\" \"func_group\"\n\"_tb_type\" \"_tb_layer\"\n\"_tb_name\" \"scaffold\"\n\
+         \"_tb_id\" \"{LAYER_ID}\"\n\"_tb_layer_sort_index\" \"0\"\n{omit_key}"
+    );
+    write_box(&mut layer, &IBox::new([x - 48, room.lo[1], floor], [x - 32, room.hi[1], ceiling]), "wall");
+    layer.push_str("}\n");
+    let mut groups = format!(
+        "{{\n\"classname\" \"func_group\"\n\"_tb_type\" \"_tb_group\"\n\"_tb_name\" \"props\"\n\
+         \"_tb_id\" \"2\"\n\"_tb_layer\" \"{LAYER_ID}\"\n"
+    );
+    write_box(&mut groups, &IBox::new([x + 32, y + 32, floor], [x + 48, y + 48, ceiling]), "wall");
+    groups.push_str(
+        "}\n{\n\"classname\" \"func_group\"\n\"_tb_type\" \"_tb_group\"\n\"_tb_name\" \"inner\"\n\
+         \"_tb_id\" \"3\"\n\"_tb_group\" \"2\"\n",
+    );
+    write_box(&mut groups, &IBox::new([x + 48, y - 64, floor + 32], [x + 64, y - 48, floor + 48]), "wall");
+    let _ = write!(
+        groups,
+        "}}\n{{\n\"classname\" \"light\"\n\"origin\" \"{beyond} {py} 64\"\n\"_tb_group\" \"3\"\n}}\n\
+         {{\n\"classname\" \"func_wall\"\n\"_tb_group\" \"3\"\n"
+    );
+    write_box(&mut groups, &IBox::new([x - 80, y + 32, floor], [x - 64, y + 48, floor + 16]), "wall");
+    groups.push_str("}\n");
+    let light = format!(
+        "{{\n\"classname\" \"light\"\n\"origin\" \"{beyond} {py} 32\"\n\"_tb_layer\" \"{LAYER_ID}\"\n}}\n"
+    );
+    // Layer after worldspawn, groups after the player start, the light last.
+    let world_end = without_layer.find("}\n{\n\"classname\" \"info_player_start\"").map_or(0, |i| i + 2);
+    let start_end = world_end + without_layer[world_end..].find("}\n").map_or(0, |i| i + 2);
+    let text = format!(
+        "{}{layer}{}{groups}{}{light}",
+        &without_layer[..world_end],
+        &without_layer[world_end..start_end],
+        &without_layer[start_end..]
+    );
+    let line_of = |at: usize| text[..at].lines().count() as u32 + 1;
+    let first_outside = format!("{{\n\"classname\" \"light\"\n\"origin\" \"{beyond} ");
+    let outside_line = text.find(&first_outside).map_or(0, line_of);
+    LayeredMap { text, without_layer, layer_brushes: 4, layer_entities: 3, outside_line }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -60,6 +60,26 @@ fn compile_stops_in_the_phase_it_is_cancelled_in() {
 }
 
 #[test]
+fn a_mesh_compile_stops_in_the_phase_it_is_cancelled_in() {
+    use sightline_tests::coplanar::{Floor, room_obj};
+    let obj = room_obj(Floor::Shuffled(3), 2000);
+    let tri = sightline_formats::obj::load_from_bytes(obj.as_bytes(), "room.obj").expect("loads");
+    let source = Source::Mesh { mesh: (&tri).into(), file: "room.obj".into() };
+    for phase in ["csg", "bsp", "portals", "outside", "emit"] {
+        let cancel = Cancel::new();
+        let opts =
+            CompileOptions { cancel: cancel.clone(), vis: Some(VisOptions::default()), ..Default::default() };
+        let progress = CancelAt::new(phase, &cancel);
+        match compile(&source, &opts, &progress) {
+            Err(CompileError::Cancelled { phase: stopped }) => assert_eq!(stopped, phase),
+            other => panic!("cancelled in {phase}: {:?}", other.map(|c| c.stats.phases)),
+        }
+        let seen = progress.seen();
+        assert_eq!(seen.last().map(String::as_str), Some(phase), "no phase after {phase} began: {seen:?}");
+    }
+}
+
+#[test]
 fn compile_stops_vis_at_its_first_batch_boundary() {
     let cancel = Cancel::new();
     let opts =

@@ -23,6 +23,7 @@ mod runtime_draw;
 mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;
+mod tb_layers;
 mod validate_compiled;
 mod validate_reference;
 mod vis_hl;
