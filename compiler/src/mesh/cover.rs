@@ -3,11 +3,13 @@
 //!
 //! The opening is cut into pieces and each piece is tested against the triangles near it only:
 //!
-//! - A kd tree over the plane's triangles cuts the opening along world-axis planes first (at the
-//!   median of the triangles' centres along their longest extent; a triangle crossing a cut goes to
-//!   both sides), so each piece meets only the triangles of its cell and the edges of a triangle
-//!   cut the pieces of its own cell, not the whole opening. Cuts on one axis lie at least
-//!   [`MIN_CELL`] apart, so they never chop a gap into slivers that would pass for cracks.
+//! - A kd tree over the plane's triangles cuts the opening along world-axis planes first (where
+//!   the fewest triangles fall on the fuller side; a triangle crossing a cut goes to both sides),
+//!   so each piece meets only the triangles of its cell and the edges of a triangle cut the pieces
+//!   of its own cell, not the whole opening. A cut lies at least [`MIN_CELL`] from the earlier
+//!   cuts of its cell on its axis, so the cuts never chop a gap into slivers that would pass for
+//!   cracks, and leaves at most 7/8 of its cell's triangles on either side, so the tree is
+//!   shallow.
 //! - In a cell, a piece is cut by the first triangle (in the order of the cell's [`BoxTree`], from
 //!   where its parent piece stopped) that overlaps it, into the parts outside that triangle; those
 //!   go on from the next triangle. A triangle that misses a piece does not cut it. A piece no
@@ -156,8 +158,8 @@ impl<'a> PlaneCover<'a> {
 /// just before a triangle's box starts or just after one ends, at least [`MIN_CELL`] from the
 /// cell's earlier cuts on that axis, for the triangles of an evenly spaced sample of at most
 /// [`CUT_SAMPLE`] items; the one leaving the fewest sampled items on its fuller side (then the
-/// fewest crossing it) wins. `None` when the cell holds few items, or the cut leaves a side with
-/// all of them, or more than half of them cross it.
+/// fewest crossing it) wins. `None` when the cell holds few items, or the cut leaves more than
+/// 7/8 of them on a side, or more than half of them cross it.
 fn cut(
     boxes: &[Aabb],
     items: &[usize],
@@ -176,10 +178,36 @@ fn cut(
         let mut maxs: Vec<f64> = sample.iter().map(|b| b.maxs[axis]).collect();
         mins.sort_unstable_by(f64::total_cmp);
         maxs.sort_unstable_by(f64::total_cmp);
-        let candidates = mins.iter().map(|m| m - step).chain(maxs.iter().map(|m| m + step));
-        for value in candidates.filter(|v| (lo..=hi).contains(v)) {
-            let back = mins.partition_point(|&m| m <= value + ON_EPSILON);
-            let front = maxs.len() - maxs.partition_point(|&m| m < value - ON_EPSILON);
+        // Candidates in increasing order (the two sorted lists merged), so the counts behind and
+        // in front of them follow with two pointers.
+        let (mut next_min, mut next_max) = (0, 0);
+        let (mut behind, mut before) = (0, 0);
+        while next_min < mins.len() || next_max < maxs.len() {
+            let value = match (mins.get(next_min), maxs.get(next_max)) {
+                (Some(&a), Some(&b)) if a - step <= b + step => {
+                    next_min += 1;
+                    a - step
+                }
+                (_, Some(&b)) => {
+                    next_max += 1;
+                    b + step
+                }
+                (Some(&a), None) => {
+                    next_min += 1;
+                    a - step
+                }
+                (None, None) => break,
+            };
+            if !(lo..=hi).contains(&value) {
+                continue;
+            }
+            while mins.get(behind).is_some_and(|&m| m <= value + ON_EPSILON) {
+                behind += 1;
+            }
+            while maxs.get(before).is_some_and(|&m| m < value - ON_EPSILON) {
+                before += 1;
+            }
+            let (back, front) = (behind, maxs.len() - before);
             let score = (back.max(front), back + front);
             if best.is_none_or(|(s, _, _)| score < s) {
                 best = Some((score, axis, value));
@@ -191,7 +219,8 @@ fn cut(
         items.iter().copied().filter(|&i| boxes[i].mins[axis] <= value + ON_EPSILON).collect();
     let front: Vec<usize> =
         items.iter().copied().filter(|&i| boxes[i].maxs[axis] >= value - ON_EPSILON).collect();
-    (back.len() < n && front.len() < n && back.len() + front.len() <= n + n / 2)
+    let most = n - n / 8;
+    (back.len() <= most && front.len() <= most && back.len() + front.len() <= n + n / 2)
         .then_some((axis, value, back, front))
 }
 
@@ -386,5 +415,37 @@ mod tests {
             cover.covers(&square(0.0, 0.0, 256.0, 256.0), DVec3::Z, &mut tests, &cancel),
             Err(Cancelled)
         );
+    }
+
+    /// Depth of the kd tree below node `at` (a cell is 0).
+    fn depth(cover: &PlaneCover<'_>, at: usize) -> usize {
+        match &cover.nodes[at] {
+            Node::Cut { children, .. } => 1 + children.iter().map(|&c| depth(cover, c)).max().unwrap_or(0),
+            Node::Cell { .. } => 0,
+        }
+    }
+
+    #[test]
+    fn the_kd_tree_stays_shallow_and_every_triangle_is_in_a_cell() {
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        // Nested triangles (each one inside the last, a unit smaller on every side) and a grid.
+        let nested: Vec<Winding> = (0..2000)
+            .map(|k| {
+                let d = f64::from(k);
+                Winding::new(vec![p(d, d), p(d, 8000.0 - 2.0 * d), p(8000.0 - 2.0 * d, d)])
+            })
+            .collect();
+        for tris in [nested, grid(64, 4.0, 9, None)] {
+            let cover = PlaneCover::new(&tris, &Cancel::new()).expect("built");
+            let bound = (tris.len() as f64).ln() / (8.0f64 / 7.0).ln();
+            assert!(depth(&cover, 0) as f64 <= bound + 1.0, "depth {} for {}", depth(&cover, 0), tris.len());
+            let mut seen = vec![false; tris.len()];
+            for node in &cover.nodes {
+                if let Node::Cell { triangles, .. } = node {
+                    triangles.iter().for_each(|&t| seen[t] = true);
+                }
+            }
+            assert!(seen.iter().all(|&s| s));
+        }
     }
 }
