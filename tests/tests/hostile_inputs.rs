@@ -72,6 +72,24 @@ mod paired;
 #[path = "hostile_inputs/signals.rs"]
 mod signals;
 
+/// A fresh, empty folder for the runs of one test (`tag` tells tests apart, the process id runs).
+fn scratch_dir(tag: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("sightline-hostile-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// The names in `dir`, sorted.
+fn file_names(dir: &std::path::Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
 /// Runs `f` and returns the peak number of bytes it held allocated at once on this thread.
 fn peak_during(f: impl FnOnce()) -> usize {
     let base = CURRENT.with(Cell::get);

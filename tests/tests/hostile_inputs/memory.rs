@@ -5,17 +5,11 @@
 //! phase whose estimate first exceeded the limit.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
+use super::scratch_dir;
 use sightline_tests::{bundled_maps, shapes, sightline_binary};
-
-fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sightline-memory-{tag}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("temp dir");
-    d
-}
 
 /// Runs `sightline compile input` with `extra` arguments, under an address-space limit of `as_mib`
 /// when given; the exit code and stderr. Death by a signal (an abort on a failed allocation)
@@ -53,7 +47,7 @@ fn under_any_address_space_limit_compile_finishes_or_refuses_cleanly() {
     if Command::new("prlimit").arg("--version").output().is_err() {
         panic!("prlimit (util-linux) is needed for this test");
     }
-    let d = dir("as");
+    let d = scratch_dir("memory-as");
     let big = d.join("tiny1500.map");
     fs::write(&big, shapes::tiny_brushes_room(1500, 3)).expect("map");
     // Thousands of brushes without vis (its matrices would need gigabytes), small inputs with.
@@ -93,7 +87,7 @@ fn under_any_address_space_limit_compile_finishes_or_refuses_cleanly() {
 /// through the phases in order (a larger allowance never fails an earlier phase).
 #[test]
 fn max_memory_refuses_each_phase_before_it_allocates() {
-    let d = dir("max");
+    let d = scratch_dir("memory-max");
     let map = d.join("tiny1500.map");
     fs::write(&map, shapes::tiny_brushes_room(1500, 3)).expect("map");
     let order = ["csg", "bsp", "portals", "outside", "emit", "vis"];

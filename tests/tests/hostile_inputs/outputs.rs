@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use super::binary::{TIMEOUT, have_prlimit, run_logged};
+use sightline_formats::hash::{FNV_OFFSET, fnv1a};
 use sightline_tests::sightline_binary as binary;
 
 /// What a folder holds, entry by entry: a file's bytes, a link's target, or the kind of anything
@@ -38,7 +39,7 @@ fn snapshot(dir: &Path) -> Snapshot {
             format!("link to {}", std::fs::read_link(&path).expect("link").display())
         } else if meta.is_file() {
             let bytes = std::fs::read(&path).expect("read");
-            format!("file of {} bytes, hash {:016x}", bytes.len(), fnv(&bytes))
+            format!("file of {} bytes, hash {:016x}", bytes.len(), fnv1a(&bytes, FNV_OFFSET))
         } else if meta.is_dir() {
             format!("folder with {:?}", snapshot(&path))
         } else {
@@ -47,11 +48,6 @@ fn snapshot(dir: &Path) -> Snapshot {
         all.insert(entry.file_name().to_string_lossy().into_owned(), what);
     }
     all
-}
-
-/// FNV-1a of `bytes` (a snapshot tells files apart by it).
-fn fnv(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
 }
 
 /// A folder for runs and another for their logs.

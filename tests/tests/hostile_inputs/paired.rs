@@ -5,17 +5,11 @@
 //! swept by the next run.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
+use super::{file_names, scratch_dir};
 use sightline_tests::{bundled_maps, sightline_binary};
-
-fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sightline-paired-{tag}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("temp dir");
-    d
-}
 
 fn sightline(args: &[&std::ffi::OsStr]) -> Output {
     Command::new(sightline_binary()).args(args).output().expect("run sightline")
@@ -26,15 +20,6 @@ fn compile(input: &Path, out: &Path, extra: &[&str]) -> Output {
         vec!["compile".as_ref(), input.as_os_str(), "-o".as_ref(), out.as_os_str()];
     args.extend(extra.iter().map(|a| std::ffi::OsStr::new(*a)));
     sightline(&args)
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .expect("list")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 fn portal_file_status(level: &Path) -> String {
@@ -52,7 +37,7 @@ fn a_pair_is_written_all_or_none() {
     for (input, blocked) in
         [("room.map", "prt"), ("room.map", "slvl"), ("leak.map", "pts"), ("leak.map", "slvl")]
     {
-        let d = dir(&format!("none-{blocked}-{input}"));
+        let d = scratch_dir(&format!("paired-none-{blocked}-{input}"));
         let out = d.join("k.slvl");
         // Earlier outputs that must survive the failed run unchanged.
         for ext in ["slvl", "prt", "pts"] {
@@ -61,12 +46,12 @@ fn a_pair_is_written_all_or_none() {
             }
         }
         fs::create_dir(out.with_extension(blocked)).expect("blocking folder");
-        let before = names(&d);
+        let before = file_names(&d);
         let run = compile(&maps.join(input), &out, &["--allow-leak", "--no-vis"]);
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert_eq!(run.status.code(), Some(2), "{input} with k.{blocked} a folder: {stderr}");
         assert!(stderr.contains(&format!("k.{blocked}")), "the error names the blocked output: {stderr}");
-        assert_eq!(names(&d), before, "{input}: no file appeared or vanished");
+        assert_eq!(file_names(&d), before, "{input}: no file appeared or vanished");
         for ext in ["slvl", "prt", "pts"] {
             if ext != blocked {
                 assert_eq!(fs::read_to_string(out.with_extension(ext)).expect("kept"), format!("old {ext}"));
@@ -82,7 +67,7 @@ fn a_pair_is_written_all_or_none() {
 #[test]
 fn the_level_records_which_portal_file_is_its_own() {
     let maps = bundled_maps();
-    let d = dir("record");
+    let d = scratch_dir("paired-record");
     let (room, pillars) = (d.join("room.slvl"), d.join("pillars.slvl"));
     assert_eq!(compile(&maps.join("room.map"), &room, &["--no-vis"]).status.code(), Some(0));
     assert_eq!(compile(&maps.join("stairs_pillars.map"), &pillars, &["--no-vis"]).status.code(), Some(0));
@@ -102,7 +87,7 @@ fn the_level_records_which_portal_file_is_its_own() {
 #[test]
 fn a_sealed_compile_removes_a_stale_pointfile() {
     let maps = bundled_maps();
-    let d = dir("stale-pts");
+    let d = scratch_dir("paired-stale-pts");
     let out = d.join("k.slvl");
     assert_eq!(compile(&maps.join("leak.map"), &out, &[]).status.code(), Some(1));
     assert!(out.with_extension("pts").is_file(), "the leak wrote its pointfile");
@@ -128,7 +113,7 @@ fn a_sealed_compile_removes_a_stale_pointfile() {
 #[test]
 fn temporaries_a_killed_compile_left_are_swept() {
     let maps = bundled_maps();
-    let d = dir("sweep");
+    let d = scratch_dir("paired-sweep");
     let out = d.join("k.slvl");
     // Process ids on Linux stop at 2^22: 999999999 never runs.
     let dead = [".k.slvl.999999999.0.tmp", ".k.prt.999999999.1.tmp"];
@@ -137,7 +122,7 @@ fn temporaries_a_killed_compile_left_are_swept() {
         fs::write(d.join(name), vec![7u8; 4096]).expect("seed");
     }
     assert_eq!(compile(&maps.join("room.map"), &out, &["--no-vis"]).status.code(), Some(0));
-    let left = names(&d);
+    let left = file_names(&d);
     assert!(dead.iter().all(|n| !left.contains(&n.to_string())), "{left:?}");
     assert!(left.contains(&live), "a running process's temporary is kept: {left:?}");
     fs::remove_dir_all(&d).expect("clean");

@@ -5,30 +5,15 @@
 //! which the next run resumes to the same file an uninterrupted run writes.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use super::{file_names, scratch_dir};
 use sightline_tests::{shapes, sightline_binary};
 
 /// Longer than any stop takes from the signal to the exit: a run past it is a hang.
 const PROMPT: Duration = Duration::from_secs(15);
-
-fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sightline-signals-{tag}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("temp dir");
-    d
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .expect("list")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
 
 fn signal(child: &Child, name: &str) {
     let pid = child.id().to_string();
@@ -81,7 +66,7 @@ fn stop_at_moments(d: &Path, map: &Path, vis: bool) -> usize {
     assert_eq!(code, Some(0), "{stderr}");
     fs::remove_file(&out).expect("rm");
     fs::remove_file(out.with_extension("prt")).expect("rm");
-    let before = names(d);
+    let before = file_names(d);
     let mut stopped = 0;
     for i in 0..12u32 {
         // Moments spread over the whole run, denser at the start (parsing and CSG are quick), from
@@ -110,14 +95,14 @@ fn stop_at_moments(d: &Path, map: &Path, vis: bool) -> usize {
             }
             other => panic!("{what}: exit {other:?}: {stderr}"),
         }
-        assert_eq!(names(d), before, "{what}: no output and no temporary file");
+        assert_eq!(file_names(d), before, "{what}: no output and no temporary file");
     }
     stopped
 }
 
 #[test]
 fn a_compile_stopped_at_any_moment_exits_promptly_and_writes_nothing() {
-    let d = dir("compile");
+    let d = scratch_dir("signals-compile");
     // Thousands of brushes without vis: seconds of CSG, tree, portals and outside fill.
     let big = d.join("big.map");
     fs::write(&big, shapes::tiny_brushes_room(4000, 7)).expect("map");
@@ -146,7 +131,7 @@ fn vis(prt: &Path, state: &Path) -> Child {
 
 #[test]
 fn sigterm_during_vis_saves_the_state_and_the_resumed_run_writes_the_same_file() {
-    let d = dir("vis");
+    let d = scratch_dir("signals-vis");
     let map = d.join("small.map");
     fs::write(&map, shapes::tiny_brushes_room(100, 7)).expect("map");
     let (code, stderr) = finish(compile(&map, &d.join("small.slvl"), false), "compile");
