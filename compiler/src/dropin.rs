@@ -186,12 +186,16 @@ pub fn run(
 /// `NAME.vis` of a portal file, the checkpoint) when one would replace an input (the compiled map
 /// or portal file, the portal file and `NAME.texinfo.json` beside a `.bsp`) or another of them,
 /// or cannot be written where it points ([`sightline_job::apart::check_outputs`]). A `.bsp`
-/// written back in place is rewritten on purpose: it counts as an input only.
+/// written back in place is rewritten on purpose: it counts as an input, checked writable only.
 fn check_outputs(path: &Path, opts: &DropInOptions) -> Result<(), DropInError> {
     let written = match &opts.external_vis {
         Some(out) => Some(out.clone()),
         None => (!quake::is_bsp(path)).then(|| path.with_extension("vis")),
     };
+    if written.is_none() {
+        sightline_job::atomic::check_writable(path)
+            .map_err(|source| DropInError::Write { path: path.into(), source })?;
+    }
     let inputs = inputs_of(path);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let outputs: Vec<&Path> = written.iter().chain(&opts.vis.state).map(PathBuf::as_path).collect();

@@ -123,8 +123,9 @@ const NOT_NUMERIC: &[(&str, &str)] = &[
 
 const COMMANDS: [&str; 8] = ["compile", "vis", "portals", "validate", "info", "render", "bench", "gvs"];
 
-/// The command line of `cmd` on `input` before the flag under test.
-fn base(cmd: &str, input: &str) -> Vec<String> {
+/// The command line of `cmd` on `input` before `flag`, the flag under test. A picture is small
+/// (unless its size is under test), so that its memory never decides a run under `prlimit`.
+fn base(cmd: &str, input: &str, flag: &str) -> Vec<String> {
     let mut line = vec![cmd.to_string()];
     line.push(match cmd {
         "compile" => format!("{input}.map"),
@@ -133,7 +134,8 @@ fn base(cmd: &str, input: &str) -> Vec<String> {
     });
     let rest: &[&str] = match cmd {
         "compile" => &["-o", "out.slvl"],
-        "render" => &["-o", "out.png"],
+        "render" if flag == "--size" => &["-o", "out.png"],
+        "render" => &["-o", "out.png", "--size", "64x48"],
         "gvs" => &["--cell", "leaves"],
         _ => &[],
     };
@@ -201,7 +203,7 @@ fn every_numeric_flag_out_of_range_is_refused_naming_it() {
     let mut runs = 0;
     for &Flag { cmd, flag, good, bad, extra } in &table {
         let line = |input: &str, value: &str| {
-            let mut args = base(cmd, input);
+            let mut args = base(cmd, input, flag);
             args.extend(extra.iter().map(|s| s.to_string()));
             args.extend([flag.to_string(), value.to_string()]);
             args

@@ -115,7 +115,8 @@ fn inputs(b: &Bench, dir: &Path) -> bool {
     true
 }
 
-/// GVS arguments for a short run.
+/// GVS arguments for a short run. (Pictures are rendered small, `--size 64x48`, so that their
+/// memory never decides a run under `prlimit`.)
 const GVS: [&str; 8] = ["--views", "0", "--max-cells", "1", "--max-rays", "2000", "--threads", "1"];
 
 /// `template` with `OUT` (or `IN`) replaced by `name`.
@@ -132,8 +133,8 @@ fn an_output_that_is_an_input_or_another_output_is_refused_leaving_the_folder_as
         ("k.map", vec!["compile", "k.map", "-o", "OUT"]),
         ("k.obj", vec!["compile", "k.obj", "-o", "OUT"]),
         ("k.map", vec!["compile", "k.map", "-o", "o.slvl", "--state", "OUT"]),
-        ("r.slvl", vec!["render", "r.slvl", "-o", "OUT", "--plan"]),
-        ("p.prt", vec!["render", "r.slvl", "-o", "OUT", "--plan", "--prt", "p.prt"]),
+        ("r.slvl", vec!["render", "r.slvl", "-o", "OUT", "--plan", "--size", "64x48"]),
+        ("p.prt", vec!["render", "r.slvl", "-o", "OUT", "--plan", "--size", "64x48", "--prt", "p.prt"]),
         ("p.prt", vec!["vis", "p.prt", "--state", "OUT"]),
         ("r.slvl", [&["gvs", "r.slvl", "--cell", "leaves", "-o", "OUT"][..], &GVS].concat()),
         ("k.obj", [&["gvs", "k.obj", "--cell", "64", "-o", "OUT"][..], &GVS].concat()),
@@ -141,7 +142,7 @@ fn an_output_that_is_an_input_or_another_output_is_refused_leaving_the_folder_as
     if bsp {
         cases.extend([
             ("e.bsp", vec!["portals", "e.bsp", "-o", "OUT"]),
-            ("e.bsp", vec!["render", "e.bsp", "-o", "OUT", "--pvs-matrix"]),
+            ("e.bsp", vec!["render", "e.bsp", "-o", "OUT", "--pvs-matrix", "--size", "64x48"]),
             ("e.bsp", vec!["vis", "e.bsp", "--state", "OUT"]),
             ("e.prt", vec!["vis", "e.bsp", "--state", "OUT"]),
             ("e.bsp", vec!["vis", "e.bsp", "--external-vis", "-o", "OUT"]),
@@ -313,16 +314,16 @@ fn a_fifo_a_folder_or_a_device_as_any_input_is_refused_naming_it() {
         ("slvl", vec!["validate", "IN", "--rays", "100"]),
         ("slvl", vec!["info", "IN"]),
         ("map", vec!["info", "IN"]),
-        ("slvl", vec!["render", "IN", "-o", "o.png", "--pvs-matrix"]),
-        ("map", vec!["render", "IN", "-o", "o.png", "--plan"]),
+        ("slvl", vec!["render", "IN", "-o", "o.png", "--pvs-matrix", "--size", "64x48"]),
+        ("map", vec!["render", "IN", "-o", "o.png", "--plan", "--size", "64x48"]),
         ("slvl", vec!["bench", "IN", "--frames", "10"]),
         ("slvl", [&["gvs", "IN", "--cell", "leaves"][..], &GVS].concat()),
         ("obj", [&["gvs", "IN", "--cell", "64"][..], &GVS].concat()),
         // The other files a run reads.
         ("state", vec!["vis", "p.prt", "--state", "IN", "--threads", "1"]),
         ("state", vec!["compile", "k.map", "-o", "o.slvl", "--state", "IN"]),
-        ("prt", vec!["render", "r.slvl", "-o", "o.png", "--plan", "--prt", "IN"]),
-        ("pts", vec!["render", "r.slvl", "-o", "o.png", "--leak", "IN"]),
+        ("prt", vec!["render", "r.slvl", "-o", "o.png", "--plan", "--size", "64x48", "--prt", "IN"]),
+        ("pts", vec!["render", "r.slvl", "-o", "o.png", "--leak", "IN", "--size", "64x48"]),
     ];
     if bsp {
         cases.extend([

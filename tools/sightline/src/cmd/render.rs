@@ -132,10 +132,14 @@ const MAX_SIDE: u32 = 8192;
 /// Widest PVS matrix picture.
 const MATRIX_SIDE: u32 = 2048;
 
-/// Bytes a picture takes per pixel while it is drawn and encoded: the rows with the leaf each
-/// pixel shows (12), the image (3), the leaf of each pixel (8), the PNG's raw and compressed rows
-/// (at most 8).
-const BYTES_PER_PIXEL: u64 = 32;
+/// Bytes a first-person view takes per pixel while it is drawn and encoded: the rows with the leaf
+/// each pixel shows (12), the image (3), the leaf of each pixel (8), the PNG's raw and compressed
+/// rows (at most 8).
+const VIEW_BYTES_PER_PIXEL: u64 = 32;
+
+/// Bytes a plan or the PVS matrix takes per pixel: its rows (3), the image (3), the PNG's raw and
+/// compressed rows (at most 6).
+const PLAN_BYTES_PER_PIXEL: u64 = 12;
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
@@ -152,15 +156,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let slab = args.z.as_deref().map(|s| pair(s, "..", "--z")).transpose()?;
     // A plan is W wide and as tall as the level's aspect makes it (at most MAX_SIDE); the matrix
     // is at most 2048 square.
-    let pixels = if eye.is_some() {
-        u64::from(w) * u64::from(h)
+    let need = if eye.is_some() {
+        u64::from(w) * u64::from(h) * VIEW_BYTES_PER_PIXEL
     } else if args.pvs_matrix {
-        u64::from(w.max(h).min(MATRIX_SIDE)).pow(2)
+        u64::from(w.max(h).min(MATRIX_SIDE)).pow(2) * PLAN_BYTES_PER_PIXEL
     } else {
-        u64::from(w) * u64::from(MAX_SIDE)
+        u64::from(w) * u64::from(MAX_SIDE) * PLAN_BYTES_PER_PIXEL
     };
     let threads = rayon::current_num_threads();
-    limits::fits_memory(&format!("a picture of --size {w}x{h}"), pixels * BYTES_PER_PIXEL, threads)?;
+    limits::fits_memory(&format!("a picture of --size {w}x{h}"), need, threads)?;
     let leak_file = args.leak.as_deref().filter(|l| !l.is_empty()).map(Path::new);
     let inputs: Vec<&Path> =
         [Some(args.input.as_path()), args.prt.as_deref(), leak_file].into_iter().flatten().collect();
