@@ -22,6 +22,7 @@ mod runtime_draw;
 mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;
+mod unusable_bounds;
 mod validate_compiled;
 mod validate_reference;
 mod vis_hl;

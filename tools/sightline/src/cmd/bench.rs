@@ -93,9 +93,9 @@ struct Report {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::ensure!(args.frames > 0, "--frames must be at least 1");
+    anyhow::ensure!(args.frames > 0, "{}: --frames must be at least 1", args.input.display());
     // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
-    let mut world = load::load_path(&args.input)?;
+    let mut world = load::load_path_with(&args.input, &crate::progress::Bars::new(true))?;
     if args.no_pvs_trees {
         world.drop_pvs_trees();
     }

@@ -80,7 +80,7 @@ pub struct Args {
 fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>)> {
     let is_map = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("map"));
     if !is_map {
-        return Ok((load::load_level(path)?, None));
+        return Ok((load::load_level(path, &crate::progress::Bars::new(true))?, None));
     }
     let name = path.display().to_string();
     let bytes = std::fs::read(path).with_context(|| format!("reading {name}"))?;
@@ -128,7 +128,7 @@ fn size(s: &str) -> anyhow::Result<(u32, u32)> {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let modes = [args.view.is_some(), args.plan, args.leak.is_some(), args.pvs_matrix];
     if modes.iter().filter(|&&m| m).count() != 1 {
-        bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
+        bail!("{}: give exactly one of --view, --plan, --leak, --pvs-matrix", args.input.display());
     }
     let leak_file = args.leak.as_deref().filter(|l| !l.is_empty()).map(Path::new);
     let inputs: Vec<&Path> =
@@ -183,9 +183,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         let from = args.from.as_deref().map(|s| vec3(s, "--from")).transpose()?;
         let leak = match &args.leak {
-            Some(p) if p.is_empty() => {
-                compiled_leak.context("--leak without a file needs a leaking .map as input")?
-            }
+            Some(p) if p.is_empty() => compiled_leak.with_context(|| {
+                format!("{}: --leak without a file needs a leaking .map as input", file())
+            })?,
             Some(p) => {
                 let bytes = std::fs::read(p).with_context(|| format!("reading {p}"))?;
                 read_pointfile(&String::from_utf8_lossy(&bytes), p)?

@@ -62,9 +62,14 @@ pub struct Args {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if !(args.offset >= 0.0 && args.offset < 64.0) {
-        anyhow::bail!("--offset must be in [0, 64) world units, got {}", args.offset);
+        anyhow::bail!(
+            "{}: --offset must be in [0, 64) world units, got {}",
+            args.input.display(),
+            args.offset
+        );
     }
-    let level = load::load_level(&args.input)?;
+    let bars = Bars::new(args.json);
+    let level = load::load_level(&args.input, &bars)?;
     // Errors about the level name its file (the library only sees the level).
     let file = || args.input.display().to_string();
     if !level.has_vis() {
@@ -86,8 +91,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         cancel: crate::interrupt::cancel(),
     };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
-    let mut v =
-        pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;
+    let mut v = pool.install(|| validate::validate(&level, &pvs, &opts, &bars)).with_context(file)?;
     v.report.input = args.input.display().to_string();
     crate::out::report(args.json, &v.report, || v.report.text())?;
     Ok(if v.report.misses() > 0 { Outcome::Finding } else { Outcome::Clean })
