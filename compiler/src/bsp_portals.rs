@@ -6,8 +6,9 @@
 //! Model 0's hull-0 node tree is copied into the builder's `bsp::Tree` (pre-order, front child first) and
 //! portalized by `portals::build_with`, the compiler's own qbsp-style builder: a huge
 //! winding on each node's plane, clipped by the ancestors' planes and a box, split down the
-//! subtree to the leaves. The box is the world model's bounds and the root node's, grown by
-//! [`BOX_MARGIN`] (qbsp's own margin) and kept within [`WORLD_LIMIT`]. Every portal between two
+//! subtree to the leaves. The box holds every vertex and the world model's and root node's bounds
+//! (those that are usable: a compiler may store `±inf`), grown by [`BOX_MARGIN`] (qbsp's own
+//! margin) and kept within [`WORLD_LIMIT`]. Every portal between two
 //! cells whose contents let sight through becomes a portal line between their clusters (their
 //! vis leaves, unless clusters are kept, below).
 //!
@@ -43,7 +44,7 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
-use sightline_formats::bsp::{Bsp, lump};
+use sightline_formats::bsp::{Bsp, bounds, lump};
 use sightline_formats::geom::{ON_EPSILON, WORLD_LIMIT};
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 use sightline_formats::rle;
@@ -448,18 +449,18 @@ fn vec3(v: [f32; 3]) -> DVec3 {
     DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
 }
 
-/// The box the portals start in: the world model's bounds and its root node's (those that are
-/// finite and not inverted), grown by [`BOX_MARGIN`], within [`WORLD_LIMIT`]; the whole world
-/// when neither is usable.
+/// The box the portals start in: every vertex of the file, the world model's bounds and its root
+/// node's (those that are [`bounds::usable`]), grown by [`BOX_MARGIN`], within [`WORLD_LIMIT`];
+/// the whole world when the file has none of them.
 fn portal_box(bsp: &Bsp) -> Aabb {
     let mut b = Aabb::EMPTY;
     let mut add = |mins: [f32; 3], maxs: [f32; 3]| {
-        let (mins, maxs) = (vec3(mins), vec3(maxs));
-        if mins.is_finite() && maxs.is_finite() && mins.cmple(maxs).all() {
-            b.add_point(mins);
-            b.add_point(maxs);
+        if bounds::usable(mins, maxs) {
+            b.add_point(vec3(mins));
+            b.add_point(vec3(maxs));
         }
     };
+    bsp.vertices.iter().for_each(|&v| add(v, v));
     if let Some(m) = bsp.models.first() {
         add(m.mins, m.maxs);
         if let Some(root) = usize::try_from(m.head_nodes[0]).ok().and_then(|n| bsp.nodes.get(n)) {

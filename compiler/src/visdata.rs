@@ -503,8 +503,8 @@ fn cluster_boxes_from(
         let Some(slot) = boxes.get_mut(c) else { continue };
         named[c] = true;
         let leaf_box = bounds
+            .filter(|&(lo, hi)| bsp::bounds::usable(lo, hi))
             .map(|(lo, hi)| Aabb::new(DVec3::from(lo.map(f64::from)), DVec3::from(hi.map(f64::from))))
-            .filter(|b| b.mins.is_finite() && b.maxs.is_finite() && b.mins.cmple(b.maxs).all())
             .map_or(unbounded, |b| b.expanded(LEAF_BOUNDS_SLACK));
         *slot = slot.union(&leaf_box);
     }
@@ -708,7 +708,7 @@ mod tests {
         let (bsp_path, prt_path) = (dir.join("q2/dm2.bsp"), dir.join("q2/dm2.prt"));
         let (Ok(bytes), Ok(prt_bytes)) = (std::fs::read(&bsp_path), std::fs::read(&prt_path)) else { return };
         let file = q2::read(&bytes).expect("dm2");
-        let mut level = q2::to_level(&bytes, &file).expect("dm2 level");
+        let mut level = q2::to_level(&file);
         let prt = sightline_formats::prt::read_bytes(&prt_bytes, "dm2.prt").expect("dm2.prt");
         let boxes = level_cluster_boxes(&level, &prt);
         assert_eq!(boxes.len(), prt.num_clusters as usize);

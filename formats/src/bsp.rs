@@ -9,12 +9,15 @@
 //! edges, vertices, texinfo, marksurfaces, model head nodes, `visofs` and the PVS row each vis leaf
 //! points at; the node graph must be acyclic; planes and vertices must be finite), so code holding
 //! a [`Bsp`] may index its vectors without checks, and [`to_level`] of it passes
-//! [`crate::slvl::validate`].
+//! [`crate::slvl::validate`]. Stored node, leaf and model bounds are taken as they are, whatever
+//! they hold (nothing in the file depends on them): [`to_level`] replaces those that are not
+//! usable ([`bounds`]). A file without clipnodes (`qbsp -noclip`) has no clip hulls, and the clip
+//! hull roots of its models are not read.
 //! [`write_with_visdata`] replaces the visibility lump of an existing file and keeps every other
 //! lump byte-identical ([`write_vis_rows`] from one row offset per vis leaf); [`check_vis_layout`]
 //! tells beforehand whether a file's lumps allow that (vis asks before computing anything);
-//! [`to_level`] turns a BSP into Sightline's [`crate::level::Level`]. Quake 2 files (`IBSP` 38)
-//! are refused here with [`BspError::Quake2`]; [`q2`] reads them as far as vis needs.
+//! [`to_level`] turns a BSP into Sightline's [`crate::level::Level`]. Quake 2 and Quake 3 files
+//! (`IBSP`) are refused here with [`BspError::OtherGame`]; [`q2`] and [`q3`] read them.
 //!
 //! # Conventions (Quake's)
 //! - Node children use Quake's encoding, widened to `i32`: `c >= 0` is node `c`, `c < 0` is leaf
@@ -28,6 +31,7 @@
 //!   surfedges (`e >= 0`: `edges[e].0`; `e < 0`: `edges[-e].1`), run clockwise seen from the side
 //!   it faces.
 
+pub mod bounds;
 mod compiled;
 mod convert;
 mod lumps;
@@ -275,7 +279,7 @@ pub struct BspModel {
     /// Origin.
     pub origin: [f32; 3],
     /// Hull 0 root (node child encoding) then the three clip hull roots (clipnode indices, or a
-    /// negative contents code for an empty hull).
+    /// negative contents code for an empty hull; not meaningful in a file without clipnodes).
     pub head_nodes: [i32; 4],
     /// Leaves with PVS rows (meaningful for model 0).
     pub visleafs: u32,
@@ -319,7 +323,7 @@ pub struct Bsp {
     pub texinfo: Vec<TexInfo>,
     /// Faces.
     pub faces: Vec<BspFace>,
-    /// Number of clipnode records (their content is not decoded).
+    /// Number of clipnode records (their content is not decoded); 0 for a file without clip hulls.
     pub num_clipnodes: usize,
     /// Leaves.
     pub leaves: Vec<BspLeaf>,
@@ -343,10 +347,16 @@ pub enum BspError {
         /// File length.
         len: usize,
     },
-    /// A Quake 2 BSP (`IBSP`), which this reader does not take: [`q2::read`] does.
-    #[error("byte 0: Quake 2 BSP (IBSP {version}), not a Quake 1 BSP (29, BSP2, 2PSB) or Half-Life BSP (30)")]
-    Quake2 {
-        /// The version field (38 for Quake 2).
+    /// A Quake 2 or Quake 3 BSP (`IBSP`), which this reader does not take: [`q2::read`] and
+    /// [`q3::read`] do.
+    #[error(
+        "byte 0: {} BSP (IBSP {version}), not a Quake 1 BSP (29, BSP2, 2PSB) or Half-Life BSP (30)",
+        game.name()
+    )]
+    OtherGame {
+        /// The game, as [`Game::sniff`] tells it.
+        game: Game,
+        /// The version field (38 for Quake 2, 46 or 47 for Quake 3).
         version: i32,
     },
     /// Unknown version field.
@@ -629,8 +639,10 @@ mod tests {
         assert_eq!((hl.version, hl.version.game()), (BspVersion::Bsp30, "Half-Life"));
         assert_eq!((hl.leaves, hl.nodes), (read(&good).unwrap().leaves, read(&good).unwrap().nodes));
         let q2 = read(b"IBSP\x26\0\0\0").unwrap_err();
-        assert_eq!(q2, BspError::Quake2 { version: 38 });
+        assert_eq!(q2, BspError::OtherGame { game: Game::Quake2, version: 38 });
         assert!(q2.to_string().contains("Quake 2 BSP (IBSP 38)"), "{q2}");
+        let q3 = read(b"IBSP\x2e\0\0\0").unwrap_err();
+        assert!(q3.to_string().starts_with("byte 0: Quake 3 BSP (IBSP 46), not a Quake 1"), "{q3}");
         let mut bad = good.clone();
         let at = 4 + 8 * lump::MODELS + 4;
         bad[at..at + 4].copy_from_slice(&1000i32.to_le_bytes());
@@ -642,6 +654,38 @@ mod tests {
         // A run overflowing the one-byte row.
         assert!(matches!(read(&tiny(&[0, 2], -1)), Err(BspError::Row { leaf: 1, .. })));
         assert!(matches!(read(&tiny(&[0], -1)), Err(BspError::Row { leaf: 1, .. })));
+    }
+
+    #[test]
+    fn stored_bounds_are_taken_whatever_they_hold_and_clip_hulls_may_be_absent() {
+        let good = tiny(&[1], -1);
+        let b = read(&good).unwrap();
+        let (nodes, leaves, models) =
+            (b.lumps[lump::NODES].offset, b.lumps[lump::LEAVES].offset, b.lumps[lump::MODELS].offset);
+        // BSP29 node and leaf bounds are integers (inverted here); model bounds are floats.
+        let mut odd = good.clone();
+        odd[nodes + 8..nodes + 10].copy_from_slice(&100i16.to_le_bytes());
+        odd[leaves + 28 + 8..leaves + 28 + 10].copy_from_slice(&100i16.to_le_bytes());
+        odd[models..models + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        odd[models + 12..models + 16].copy_from_slice(&f32::NEG_INFINITY.to_le_bytes());
+        // No clipnodes (qbsp -noclip): every clip hull root 0 names nothing and is not read.
+        odd[models + 40..models + 52].fill(0);
+        let b = read(&odd).unwrap();
+        assert_eq!((b.num_clipnodes, b.models[0].head_nodes), (0, [0; 4]));
+        assert!(b.models[0].mins[0].is_nan() && b.nodes[0].mins[0] > b.nodes[0].maxs[0]);
+        let level = to_level(&b);
+        crate::slvl::validate(&level).unwrap();
+        assert!(level.nodes.iter().all(|n| bounds::usable(n.mins, n.maxs)));
+        assert!(level.leaves.iter().all(|l| bounds::usable(l.mins, l.maxs)));
+        // With clipnodes present, a root must name one.
+        let mut clip = odd.clone();
+        let entry = 4 + 8 * lump::CLIPNODES;
+        clip[entry + 4..entry + 8].copy_from_slice(&8i32.to_le_bytes());
+        clip[models + 40..models + 44].copy_from_slice(&1i32.to_le_bytes());
+        let e = read(&clip).unwrap_err();
+        assert!(e.to_string().contains("model 0: clip hull root 1 >= 1 clipnodes"), "{e}");
+        clip[models + 40..models + 44].copy_from_slice(&0i32.to_le_bytes());
+        assert_eq!(read(&clip).map(|b| b.num_clipnodes), Ok(1));
     }
 
     #[test]

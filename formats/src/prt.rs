@@ -114,13 +114,14 @@ impl PrtFormat {
 /// docs): `NAME.prt` for `NAME.bsp`; `NAME.vis.prt`, then `NAME.prt`, for `NAME.vis.bsp`. Empty
 /// when the file name does not end in `.bsp` (any case).
 pub fn beside_bsp(bsp: &Path) -> Vec<PathBuf> {
-    let Some(name) = bsp.file_name().and_then(|n| n.to_str()) else { return Vec::new() };
-    let Some(stem) = strip_suffix_ignore_case(name, ".bsp").filter(|s| !s.is_empty()) else {
+    // Path and OsStr throughout: a name that is not UTF-8 is a name like any other.
+    let named = |p: &Path, ext: &str| p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext));
+    let Some(stem) = bsp.file_stem().map(Path::new).filter(|_| named(bsp, "bsp")) else {
         return Vec::new();
     };
-    let mut out = vec![bsp.with_file_name(format!("{stem}.prt"))];
-    if let Some(base) = strip_suffix_ignore_case(stem, ".vis").filter(|s| !s.is_empty()) {
-        out.push(bsp.with_file_name(format!("{base}.prt")));
+    let mut out = vec![bsp.with_extension("prt")];
+    if named(stem, "vis") {
+        out.push(bsp.with_file_name(stem).with_extension("prt"));
     }
     out
 }
@@ -128,12 +129,6 @@ pub fn beside_bsp(bsp: &Path) -> Vec<PathBuf> {
 /// The first of [`beside_bsp`]'s candidates that is a file.
 pub fn find_beside_bsp(bsp: &Path) -> Option<PathBuf> {
     beside_bsp(bsp).into_iter().find(|p| p.is_file())
-}
-
-fn strip_suffix_ignore_case<'a>(s: &'a str, suffix: &str) -> Option<&'a str> {
-    let cut = s.len().checked_sub(suffix.len())?;
-    let (head, tail) = (s.get(..cut)?, s.get(cut..)?);
-    tail.eq_ignore_ascii_case(suffix).then_some(head)
 }
 
 /// One portal line.

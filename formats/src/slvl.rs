@@ -580,6 +580,34 @@ mod tests {
         assert_eq!(read(&bytes), Ok(Level::default()));
     }
 
+    /// A tree needs a world model to root it; faces alone (GVS results for a mesh) do not.
+    #[test]
+    fn a_tree_without_a_world_model_is_refused() {
+        let leaf = Leaf {
+            contents: Contents::Empty,
+            cluster: -1,
+            mins: [0.0; 3],
+            maxs: [0.0; 3],
+            first_face: 0,
+            num_faces: 0,
+        };
+        let world = Model { head_node: -1, mins: [0.0; 3], maxs: [0.0; 3], first_face: 0, num_faces: 0 };
+        let level = Level { leaves: vec![leaf], models: vec![world], ..Level::default() };
+        assert_eq!(read(&write(&level, &WriteOptions::default())), Ok(level.clone()));
+        let rootless = Level { models: Vec::new(), ..level };
+        let e = read(&write(&rootless, &WriteOptions::default())).unwrap_err();
+        assert!(matches!(e, SlvlError::Invalid { lump: "models", index: 0, .. }), "{e:?}");
+        assert!(
+            e.to_string().contains("no world model (model 0) to root the tree of 0 nodes and 1 leaves"),
+            "{e}"
+        );
+        let mut faces = random_level(5);
+        (faces.nodes, faces.leaves, faces.models, faces.portals) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        (faces.num_clusters, faces.pvs_offsets, faces.pvs_data) = (0, Vec::new(), Vec::new());
+        assert_eq!(validate(&faces), Ok(()), "faces alone");
+    }
+
     #[test]
     fn unknown_kinds_are_skipped_and_duplicates_rejected() {
         let level = random_level(7);

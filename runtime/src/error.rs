@@ -19,7 +19,9 @@ pub enum LoadError {
     /// non-finite value, a cycle, a PVS row that does not decode, ...).
     #[error("invalid level")]
     Invalid(#[source] SlvlError),
-    /// The level has no model 0 (the world).
+    /// The level has no model 0 (the world). [`sightline_formats::slvl::validate`] refuses such a
+    /// level first ([`LoadError::Invalid`]); this is the runtime's own guard, for a level that
+    /// reached it unchecked.
     #[error("the models lump is empty: the level has no world model (model 0)")]
     NoWorldModel,
     /// A plane's normal is not unit length.

@@ -1,7 +1,8 @@
 //! Loading a [`World`] from `.slvl` or Quake-family `.bsp` bytes (Quake 1, Half-Life, Quake 2,
 //! Quake 3), optionally with the `.prt` file that a Quake 1 BSP's compiler wrote, to give the
 //! portal backend its portals. Two entry points: [`load_path`] (a file, and the portal file
-//! beside it) and [`load_bytes`] (bytes in memory); both tell the format by its magic bytes.
+//! beside it; [`load_path_with`] also tells a [`Progress`] what it had to repair) and
+//! [`load_bytes`] (bytes in memory); both tell the format by its magic bytes.
 
 use std::path::Path;
 
@@ -10,6 +11,7 @@ use sightline_formats::level::{Level, LevelPlane, Portal};
 use sightline_formats::prt::{self, PortalFile, PrtFormat};
 use sightline_formats::slvl;
 use sightline_job::input::read_input;
+use sightline_job::progress::{NoProgress, Progress};
 
 use crate::error::LoadError;
 use crate::pvs::PvsRows;
@@ -26,9 +28,20 @@ fn load_slvl(bytes: &[u8]) -> Result<World, LoadError> {
 /// the world is leaf `i` of the BSP and vis leaf `i` is cluster `i - 1`; Quake 2 (`IBSP` 38) and
 /// Quake 3 (`IBSP` 46/47) leaves keep their clusters, and a Quake 2 world keeps the file's PHS
 /// rows too ([`World::decode_phs`] decodes them; [`sightline_formats::bsp::q2::read`] checked
-/// that they decode). The world has no portals.
-fn load_bsp(map: &CompiledMap) -> Result<World, LoadError> {
-    world_of(map, map.to_level()?)
+/// that they decode). The world has no portals. Stored bounds the level could not use as they
+/// are were repaired ([`sightline_formats::bsp::bounds`]); each repair of bounds the runtime uses
+/// is a warning to `progress`, naming `name`.
+fn load_bsp(map: &CompiledMap, name: &str, progress: &dyn Progress) -> Result<World, LoadError> {
+    world_of(map, level_of(map, name, progress))
+}
+
+/// The level of `map`, each repair of its bounds a warning to `progress` naming `name`.
+fn level_of(map: &CompiledMap, name: &str, progress: &dyn Progress) -> Level {
+    let (level, repairs) = map.to_level_with_repairs();
+    for r in repairs {
+        progress.warn(&format!("{name}: {r}"));
+    }
+    level
 }
 
 /// The world of `level`, made from `map`: with the stored PHS rows of a Quake 2 map.
@@ -48,8 +61,14 @@ fn world_of(map: &CompiledMap, level: Level) -> Result<World, LoadError> {
 
 /// Load a Quake 1 or Half-Life `.bsp` and take its portals from the text of the `.prt` file its
 /// compiler wrote.
-fn load_bsp_with_prt(map: &CompiledMap, prt_text: &str, prt_name: &str) -> Result<World, LoadError> {
-    let mut level = map.to_level()?;
+fn load_bsp_with_prt(
+    map: &CompiledMap,
+    prt_text: &str,
+    prt_name: &str,
+    name: &str,
+    progress: &dyn Progress,
+) -> Result<World, LoadError> {
+    let mut level = level_of(map, name, progress);
     let prt = prt::read(prt_text, prt_name)?;
     add_prt_portals(&mut level, &prt)?;
     world_of(map, level)
@@ -61,7 +80,7 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
     if bytes.starts_with(&slvl::MAGIC) {
         load_slvl(bytes)
     } else {
-        load_bsp(&CompiledMap::read(bytes.to_vec())?)
+        load_bsp(&CompiledMap::read(bytes.to_vec())?, "the .bsp", &NoProgress)
     }
 }
 
@@ -72,6 +91,14 @@ pub fn load_bytes(bytes: &[u8]) -> Result<World, LoadError> {
 /// ([`sightline_job::input::read_input`]). Every error names the file: [`LoadError::Io`] by
 /// itself, the others inside [`LoadError::File`].
 pub fn load_path(path: &Path) -> Result<World, LoadError> {
+    load_path_with(path, &NoProgress)
+}
+
+/// [`load_path`], telling `progress` (as warnings naming the file) what it repaired to load the
+/// file: stored bounds of a `.bsp` the runtime uses (open leaves', models') that were not finite
+/// or inverted ([`sightline_formats::bsp::bounds`]).
+pub fn load_path_with(path: &Path, progress: &dyn Progress) -> Result<World, LoadError> {
+    let name = path.display().to_string();
     let bytes = read_input(path)?;
     let in_file = |e: LoadError| match e {
         LoadError::Io(_) => e,
@@ -94,9 +121,9 @@ pub fn load_path(path: &Path) -> Result<World, LoadError> {
             LoadError::Prt(_) => LoadError::File { path: prt_name.clone(), source: Box::new(e) },
             other => other,
         };
-        return load_bsp_with_prt(&map, &text, &prt_name).map_err(in_prt).map_err(in_file);
+        return load_bsp_with_prt(&map, &text, &prt_name, &name, progress).map_err(in_prt).map_err(in_file);
     }
-    load_bsp(&map).map_err(in_file)
+    load_bsp(&map, &name, progress).map_err(in_file)
 }
 
 /// The portal file beside a `.bsp` that exists, by the one rule every reader follows

@@ -11,6 +11,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use sightline_formats::bsp::BspVersion;
+use sightline_formats::bsp::bounds::{self, BoundsRepair};
 use sightline_formats::texture::Ambient;
 use sightline_formats::vispatch::{self, VisPatchRecord};
 
@@ -55,6 +56,15 @@ pub fn run(
     let mut result = super::flow(&input.prt, opts, progress, path)?;
     let mut farplane_hidden_pairs = 0;
     if let (Some(d), Some(b)) = (farplane, &input.bsp) {
+        let unbounded: Vec<u32> = (1..=b.bsp.visleafs())
+            .filter(|&l| b.bsp.leaves.get(l).is_some_and(|l| !bounds::usable(l.mins, l.maxs)))
+            .map(|l| l as u32)
+            .collect();
+        if !unbounded.is_empty() {
+            let stand_in = "the far plane culls no cluster holding one";
+            let r = BoundsRepair { record: "leaf", indices: unbounded, stand_in };
+            progress.warn(&format!("{}: {r}", path.display()));
+        }
         let boxes = visdata::cluster_boxes(&b.bsp, &input.prt);
         farplane_hidden_pairs =
             vis::farplane::cull(&mut result, &boxes, d).map_err(DropInError::vis_at(path))?;
@@ -141,9 +151,15 @@ pub(crate) fn vis_input(
     Ok((input, stats))
 }
 
-/// The record name of the map at `path`: its file name, which must fit a record.
+/// The record name of the map at `path`: its file name, which must fit a record (and be UTF-8:
+/// a record spelling another name than the file's would never be found by an engine).
 pub(crate) fn map_name(path: &Path) -> Result<String, DropInError> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let Some(name) = path.file_name().unwrap_or_default().to_str().map(str::to_string) else {
+        return Err(DropInError::refused(
+            path,
+            "an external .vis names its map in UTF-8; this file name is not",
+        ));
+    };
     if !vispatch::valid_name(&name) {
         return Err(DropInError::refused(
             path,

@@ -27,7 +27,7 @@ pub fn run(
 ) -> Result<Q2Report, DropInError> {
     refuse_quake1_options(path, opts)?;
     let map = CompiledMap::read(bytes).map_err(DropInError::bsp(path))?;
-    let Parsed::Quake2(file) = map.parsed() else {
+    let Parsed::Quake2(_) = map.parsed() else {
         return Err(DropInError::refused(path, "not a Quake 2 .bsp (IBSP 38)"));
     };
     map.check_vis_layout().map_err(DropInError::bsp(path))?;
@@ -75,7 +75,13 @@ pub fn run(
         let mut result = super::flow(&prt, opts, progress, path)?;
         let mut farplane_hidden_pairs = None;
         if let Some(d) = farplane {
-            let level = q2::to_level(bytes, file).map_err(DropInError::bsp(path))?;
+            let (level, repairs) = map.to_level_with_repairs();
+            for r in repairs.iter().filter(|r| r.record == "leaf") {
+                progress.warn(&format!(
+                    "{}: {r} (the far plane culls clusters by their leaves' boxes)",
+                    path.display()
+                ));
+            }
             let boxes = visdata::level_cluster_boxes(&level, &prt);
             farplane_hidden_pairs =
                 Some(vis::farplane::cull(&mut result, &boxes, d).map_err(DropInError::vis_at(path))?);

@@ -10,6 +10,7 @@
 //! ([`super::write_vis_rows`], [`super::q2::write_with_visibility`],
 //! [`super::q3::write_with_visibility`]); the compiler's drop-in vis chooses among them.
 
+use super::bounds::{self, BoundsRepair};
 use super::{Bsp, BspError, BspVersion, lumps, q2, q3};
 use crate::level::Level;
 
@@ -39,7 +40,8 @@ impl Game {
         BspVersion::ALL.into_iter().find(|v| v.magic() == magic).map(Self::Quake)
     }
 
-    /// How reports name the game: `Quake`, `Half-Life`, `Quake 2`, `Quake 3`.
+    /// How reports name the game: `Quake`, `Half-Life`, `Quake 2`, `Quake 3`. The one place a
+    /// game is named (errors about a file of the wrong game say it through this).
     pub fn name(self) -> &'static str {
         match self {
             Self::Quake(v) => v.game(),
@@ -120,12 +122,21 @@ impl CompiledMap {
 
     /// The map as a [`Level`]: Quake 1 and Half-Life one cluster per vis leaf
     /// ([`super::to_level`]); Quake 2 the file's clusters and texinfo draw data
-    /// ([`q2::to_level`]); Quake 3 its clusters, opaque leaves solid ([`q3::to_level`]).
-    pub fn to_level(&self) -> Result<Level, BspError> {
-        Ok(match &self.parsed {
-            Parsed::Quake(b) => super::to_level(b),
-            Parsed::Quake2(f) => q2::to_level(&self.bytes, f)?,
-            Parsed::Quake3(f) => q3::to_level(f),
-        })
+    /// ([`q2::to_level`]); Quake 3 its clusters, opaque leaves solid ([`q3::to_level`]). Bounds the
+    /// file stores unusable are replaced ([`bounds`]).
+    pub fn to_level(&self) -> Level {
+        self.to_level_with_repairs().0
+    }
+
+    /// [`CompiledMap::to_level`], with the repairs of stored bounds that something uses: what a
+    /// caller of the level should warn about ([`BoundsRepair`]).
+    pub fn to_level_with_repairs(&self) -> (Level, Vec<BoundsRepair>) {
+        let mut level = match &self.parsed {
+            Parsed::Quake(b) => super::convert::level_as_stored(b),
+            Parsed::Quake2(f) => q2::level_as_stored(f),
+            Parsed::Quake3(f) => q3::level_as_stored(f),
+        };
+        let repairs = bounds::repair(&mut level);
+        (level, repairs)
     }
 }

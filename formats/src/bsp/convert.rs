@@ -1,6 +1,6 @@
 //! Turning a Quake BSP into Sightline's [`Level`].
 
-use super::Bsp;
+use super::{Bsp, bounds};
 use crate::bits;
 use crate::level::{Contents, Face, FaceDraw, Leaf, Level, LevelPlane, Model, Node};
 use crate::rle;
@@ -25,7 +25,16 @@ use std::collections::HashMap;
 ///   and flags (zero axes when one is not finite) and its light styles and lighting offset;
 ///   `texture_sizes` the miptex sizes.
 /// - `leaf_faces` are the BSP's marksurfaces; the level has no portals and no GVS cells.
+/// - Node, leaf and model bounds are the stored ones where they are usable; [`bounds`] replaces
+///   the others (and [`super::CompiledMap::to_level_with_repairs`] says which).
 pub fn to_level(bsp: &Bsp) -> Level {
+    let mut level = level_as_stored(bsp);
+    bounds::repair(&mut level);
+    level
+}
+
+/// [`to_level`] with the stored bounds as they are, usable or not.
+pub(super) fn level_as_stored(bsp: &Bsp) -> Level {
     let textures: Vec<String> =
         bsp.textures.iter().map(|t| t.as_ref().map(|t| t.name.clone()).unwrap_or_default()).collect();
     let mut polygons = Polygons::new(bsp.planes.iter().map(|p| (p.normal, p.dist)), bsp.faces.len());

@@ -2,7 +2,7 @@
 
 use super::lumps::{invalid, lump_records, read_lump_table};
 use super::{
-    Bsp, BspError, BspFace, BspLeaf, BspModel, BspNode, BspPlane, BspVersion, HEADER_BYTES, LumpEntry,
+    Bsp, BspError, BspFace, BspLeaf, BspModel, BspNode, BspPlane, BspVersion, Game, HEADER_BYTES, LumpEntry,
     MipTex, NUM_LUMPS, TexInfo, lump,
 };
 use crate::le::Rec;
@@ -69,9 +69,9 @@ pub(super) fn non_negative(
 }
 
 pub(super) fn read_header(bytes: &[u8]) -> Result<(BspVersion, [LumpEntry; NUM_LUMPS]), BspError> {
-    if super::lumps::is_ibsp(bytes) {
+    if let Some(game @ (Game::Quake2 | Game::Quake3)) = Game::sniff(bytes) {
         let version = bytes.get(4..8).map_or(0, |v| i32::from_le_bytes([v[0], v[1], v[2], v[3]]));
-        return Err(BspError::Quake2 { version });
+        return Err(BspError::OtherGame { game, version });
     }
     if bytes.len() < HEADER_BYTES {
         return Err(BspError::TooShort { len: bytes.len() });
@@ -289,9 +289,6 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
     let node_size = v.node_bytes();
     for (i, n) in bsp.nodes.iter().enumerate() {
         let at = rec_offset(bsp, lump::NODES, node_size, i);
-        if !n.mins.iter().chain(&n.maxs).all(|c| c.is_finite()) {
-            return Err(invalid(at, format!("node {i}"), "bounds not finite"));
-        }
         check_index(at, "node", i, n.plane.into(), bsp.planes.len(), "planes")?;
         check_range(at, "node", i, n.first_face.into(), n.num_faces.into(), bsp.faces.len(), "faces")?;
     }
@@ -337,9 +334,6 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
     }
     for (i, m) in bsp.models.iter().enumerate() {
         let at = rec_offset(bsp, lump::MODELS, 64, i);
-        if !m.mins.iter().chain(&m.maxs).all(|c| c.is_finite()) {
-            return Err(invalid(at, format!("model {i}"), "bounds not finite"));
-        }
         check_range(at, "model", i, m.first_face.into(), m.num_faces.into(), bsp.faces.len(), "faces")?;
         let head = m.head_nodes[0];
         let ok = if head >= 0 {
@@ -350,8 +344,10 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
         if !ok {
             return Err(invalid(at, format!("model {i}"), format!("bad head node {head}")));
         }
+        // Without clipnodes (qbsp -noclip) the file has no clip hulls and their roots (0) name
+        // nothing: nothing reads them. With clipnodes, a root must name one.
         for &clip in &m.head_nodes[1..] {
-            if clip >= 0 && clip as usize >= bsp.num_clipnodes {
+            if bsp.num_clipnodes > 0 && clip >= 0 && clip as usize >= bsp.num_clipnodes {
                 return Err(invalid(
                     at,
                     format!("model {i}"),
@@ -376,9 +372,6 @@ fn validate(bsp: &Bsp) -> Result<(), BspError> {
     let mut checked_ofs = std::collections::HashSet::new();
     for (i, l) in bsp.leaves.iter().enumerate() {
         let at = rec_offset(bsp, lump::LEAVES, leaf_size, i);
-        if !l.mins.iter().chain(&l.maxs).all(|c| c.is_finite()) {
-            return Err(invalid(at, format!("leaf {i}"), "bounds not finite"));
-        }
         check_range(
             at,
             "leaf",

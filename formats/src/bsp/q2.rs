@@ -1,7 +1,10 @@
-//! Quake 2 BSP files (`IBSP`, version 38), read as far as vis needs them.
+//! Quake 2 BSP files (`IBSP`, version 38).
 //!
-//! [`read`] checks the header and every lump against the file, reads each leaf's `cluster` and
-//! validates the visibility lump (`dvis_t`: `numclusters`, then a PVS and a PHS offset per
+//! [`read`] checks the header and every lump against the file, decodes and checks every lump a
+//! level needs ([`to_level`]: planes and vertices finite, every index in range, the node graph
+//! acyclic, a world model), so vis, `info`, `validate` and the runtime take and refuse the same
+//! files; it reads each leaf's `cluster` and validates the visibility lump (`dvis_t`:
+//! `numclusters`, then a PVS and a PHS offset per
 //! cluster, measured from the start of the lump, then the rows in Quake's zero-run RLE): every
 //! count is checked against the bytes before anything is allocated, every offset must lie in the
 //! lump and every row must decode. [`vis_lump`] lays out a new visibility lump (all PVS rows, then
@@ -21,6 +24,7 @@ mod level;
 use crate::bits;
 use crate::le::Rec;
 use crate::rle;
+pub(crate) use level::level_as_stored;
 pub use level::{contents, to_level};
 
 /// The four bytes that start a Quake 2 BSP.
@@ -153,8 +157,8 @@ impl Q2Vis {
     }
 }
 
-/// A Quake 2 BSP, read as far as vis needs it.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A Quake 2 BSP, read and checked (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Q2Bsp {
     /// Header entries, in lump order (each inside the file).
     pub lumps: [LumpEntry; NUM_LUMPS],
@@ -162,12 +166,14 @@ pub struct Q2Bsp {
     pub leaf_clusters: Vec<i32>,
     /// The visibility lump; `None` when it is empty (before vis).
     pub vis: Option<Q2Vis>,
+    /// The other lumps, for [`to_level`].
+    geometry: level::Geometry,
 }
 
 impl Q2Bsp {
     /// Clusters the leaves name: the largest leaf cluster plus one.
     pub fn leaf_cluster_count(&self) -> usize {
-        self.leaf_clusters.iter().map(|&c| (c + 1).max(0) as usize).max().unwrap_or(0)
+        level::cluster_count(&self.leaf_clusters)
     }
 }
 
@@ -177,7 +183,7 @@ pub fn read_header(bytes: &[u8]) -> Result<[LumpEntry; NUM_LUMPS], BspError> {
     Ok(lumps)
 }
 
-/// Parses and validates a Quake 2 BSP as far as vis needs it (see the module docs).
+/// Parses and validates a Quake 2 BSP (see the module docs).
 pub fn read(bytes: &[u8]) -> Result<Q2Bsp, BspError> {
     let lumps = read_header(bytes)?;
     let mut leaf_clusters = Vec::new();
@@ -208,7 +214,8 @@ pub fn read(bytes: &[u8]) -> Result<Q2Bsp, BspError> {
             format!("cluster {c} >= the {} clusters of the visibility lump", v.num_clusters),
         ));
     }
-    Ok(Q2Bsp { lumps, leaf_clusters, vis })
+    let geometry = level::read_geometry(bytes, &lumps, &leaf_clusters, vis.as_ref())?;
+    Ok(Q2Bsp { lumps, leaf_clusters, vis, geometry })
 }
 
 /// Validates a visibility lump (`data`, found at byte `at` of the file).
@@ -314,8 +321,9 @@ pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, Bsp
 mod tests {
     use super::*;
 
-    /// A minimal Quake 2 BSP: three leaves (clusters -1, 0, 1), an entity lump after an empty
-    /// visibility lump at the same offset, as ericw's qbsp writes it.
+    /// A minimal Quake 2 BSP: three leaves (clusters -1, 0, 1), the world model (leaf 0, no
+    /// nodes), an entity lump after an empty visibility lump at the same offset, as ericw's qbsp
+    /// writes it.
     pub(crate) fn tiny() -> Vec<u8> {
         let mut out = vec![0u8; HEADER_BYTES];
         out[..4].copy_from_slice(&MAGIC);
@@ -331,6 +339,12 @@ mod tests {
             out.extend_from_slice(&rec);
         }
         set(&mut out, lump::LEAVES, leaves_at, 3 * LEAF_BYTES);
+        let models_at = out.len();
+        out.extend_from_slice(&[0u8; 36]);
+        for v in [-1i32, 0, 0] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        set(&mut out, 13, models_at, 48);
         let ents_at = out.len();
         out.extend_from_slice(b"{\n\"classname\" \"worldspawn\"\n}\n\0");
         let ents_len = out.len() - ents_at;

@@ -3,9 +3,10 @@
 //!
 //! [`read`] checks the header and every lump it decodes against the file: planes (finite),
 //! nodes (plane and child indices in range, no cycle), leaves (cluster `-1` or below the leaf
-//! count, as every cluster holds a leaf), models, the
-//! entity text, and the visibility lump (lump 16: `int32 numClusters`, `int32 clusterBytes`,
-//! then `numClusters` rows of `clusterBytes` **uncompressed** bytes). Every count is checked
+//! count, as every cluster holds a leaf), models (at least the world's; bounds as stored, which
+//! [`to_level`] repairs when unusable, [`super::bounds`]), the entity text, and the visibility
+//! lump (lump 16: `int32 numClusters`, `int32 clusterBytes`, then `numClusters` rows of
+//! `clusterBytes` **uncompressed** bytes). Every count is checked
 //! against the bytes present before anything is allocated. [`vis_lump`] lays out a visibility
 //! lump as q3map2 does (rows of `((n + 63) & !63) / 8` bytes, pad bits zero) and
 //! [`write_with_visibility`] puts it into a file, keeping every other byte (q3map2 also stamps its
@@ -287,13 +288,11 @@ pub fn read(bytes: &[u8]) -> Result<Q3Bsp, BspError> {
     if nodes.is_empty() && leaves.is_empty() {
         return Err(invalid(lumps[lump::LEAVES].offset, "leaves", "no nodes and no leaves: no world tree"));
     }
-    let mut models = Vec::new();
-    for (i, (at, mut r)) in records(bytes, &lumps, lump::MODELS, MODEL_BYTES)?.enumerate() {
-        let m = Q3Model { mins: r.vec3(), maxs: r.vec3() };
-        if !m.mins.iter().chain(&m.maxs).all(|v| v.is_finite()) {
-            return Err(invalid(at, format!("model {i}"), "non-finite bounds"));
-        }
-        models.push(m);
+    let models: Vec<Q3Model> = records(bytes, &lumps, lump::MODELS, MODEL_BYTES)?
+        .map(|(_, mut r)| Q3Model { mins: r.vec3(), maxs: r.vec3() })
+        .collect();
+    if models.is_empty() {
+        return Err(invalid(lumps[lump::MODELS].offset, "models", "no world model"));
     }
 
     let vis_entry = lumps[lump::VISIBILITY];
@@ -406,9 +405,9 @@ pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, Bsp
 /// Builds a [`Level`] from a validated Quake 3 BSP, for the runtime and validation.
 ///
 /// - Planes, nodes and leaves map one to one (leaf `i` of the level is leaf `i` of the file);
-///   the world model's head node is node 0 (leaf 0 when the file has no nodes). A leaf with empty
-///   bounds (`mins > maxs`: q3map2's leaf 0, which no node names, stores `INT_MAX..INT_MIN`) gets
-///   the point box at the origin.
+///   the world model's head node is node 0 (leaf 0 when the file has no nodes). Bounds are the
+///   stored ones where usable; [`super::bounds`] replaces the others (q3map2's leaf 0, which no
+///   node names, stores `INT_MAX..INT_MIN`).
 /// - Leaves with cluster `-1` are [`Contents::Solid`] (they block sight), every other leaf is
 ///   [`Contents::Empty`] with its cluster: brushes that do not make a leaf opaque (detail,
 ///   translucent, non-solid) and patches let sight through, which can only make validation find
@@ -419,6 +418,13 @@ pub fn write_with_visibility(original: &[u8], vis: &[u8]) -> Result<Vec<u8>, Bsp
 /// - Only the world model is kept (brush models have no tree in Quake 3); the level has no faces,
 ///   no portals and no GVS cells.
 pub fn to_level(bsp: &Q3Bsp) -> Level {
+    let mut level = level_as_stored(bsp);
+    super::bounds::repair(&mut level);
+    level
+}
+
+/// [`to_level`] with the stored bounds as they are, usable or not.
+pub(crate) fn level_as_stored(bsp: &Q3Bsp) -> Level {
     let planes = bsp.planes.iter().map(|p| LevelPlane { normal: p.normal, dist: p.dist }).collect();
     let f = |v: [i32; 3]| v.map(|x| x as f32);
     let nodes = bsp
@@ -429,16 +435,13 @@ pub fn to_level(bsp: &Q3Bsp) -> Level {
     let leaves = bsp
         .leaves
         .iter()
-        .map(|l| {
-            let empty = (0..3).any(|k| l.mins[k] > l.maxs[k]);
-            Leaf {
-                contents: if l.cluster < 0 { Contents::Solid } else { Contents::Empty },
-                cluster: l.cluster,
-                mins: if empty { [0.0; 3] } else { f(l.mins) },
-                maxs: if empty { [0.0; 3] } else { f(l.maxs) },
-                first_face: 0,
-                num_faces: 0,
-            }
+        .map(|l| Leaf {
+            contents: if l.cluster < 0 { Contents::Solid } else { Contents::Empty },
+            cluster: l.cluster,
+            mins: f(l.mins),
+            maxs: f(l.maxs),
+            first_face: 0,
+            num_faces: 0,
         })
         .collect();
     let num_clusters = bsp.vis.as_ref().map_or(bsp.leaf_cluster_count(), |v| v.num_clusters);
@@ -594,5 +597,25 @@ pub(crate) mod tests {
         assert!(matches!(read(&bad), Err(BspError::Invalid { offset: 4, .. })));
         assert!(read(&good[..100]).is_err());
         assert!(is_q3(&good) && !is_q3(&bad) && !is_q3(b"IBSP"));
+        // No world model: engines refuse the map, and so does every reader here.
+        let mut bad = good.clone();
+        let entry = 8 + 8 * lump::MODELS + 4;
+        bad[entry..entry + 4].copy_from_slice(&0i32.to_le_bytes());
+        let e = read(&bad).unwrap_err();
+        assert!(e.to_string().contains("models: no world model"), "{e}");
+    }
+
+    #[test]
+    fn unusable_model_bounds_are_read_and_repaired_in_the_level() {
+        let mut file = tiny();
+        let models = read(&file).unwrap().lumps[lump::MODELS].offset;
+        file[models..models + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        file[models + 12..models + 16].copy_from_slice(&f32::NEG_INFINITY.to_le_bytes());
+        let bsp = read(&file).unwrap();
+        assert!(bsp.models[0].mins[0].is_nan());
+        let level = to_level(&bsp);
+        crate::slvl::validate(&level).unwrap();
+        // No faces: the map's extent (the nodes' and leaves' boxes) stands in.
+        assert_eq!((level.models[0].mins, level.models[0].maxs), ([-64.0; 3], [64.0; 3]));
     }
 }

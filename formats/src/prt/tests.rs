@@ -99,6 +99,21 @@ fn unicode_whitespace_separates_and_columns_count_characters() {
     assert_eq!((e.line, e.col), (4, 16));
 }
 
+/// A name that is not UTF-8 is a name like any other (it once gave no candidate at all).
+#[cfg(unix)]
+#[test]
+fn the_portal_file_beside_a_bsp_whose_name_is_not_utf8() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let path = |b: &[u8]| PathBuf::from(OsStr::from_bytes(b));
+    assert_eq!(beside_bsp(&path(b"maps/a\xff.bsp")), [path(b"maps/a\xff.prt")]);
+    assert_eq!(
+        beside_bsp(&path(b"\xfe/a\xff.VIS.bsp")),
+        [path(b"\xfe/a\xff.VIS.prt"), path(b"\xfe/a\xff.prt")]
+    );
+    assert!(beside_bsp(&path(b"a\xff.slvl")).is_empty());
+}
+
 #[test]
 fn the_portal_file_beside_a_bsp() {
     let dir = Path::new("maps");

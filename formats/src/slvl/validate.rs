@@ -70,7 +70,9 @@ impl Check {
 /// leaf face ranges in `leaf_faces`; solid leaves in cluster -1 and other clusters below
 /// `num_clusters`; `leaf_faces` entries below the face count; faces with at least 3 corners in
 /// range and a valid plane and texture; portals between existing leaves with a valid plane and at
-/// least 3 corners; model head nodes and face ranges; `num_clusters` at most the leaf count;
+/// least 3 corners; a world model (model 0) when the level has a tree (a level of faces alone, such
+/// as GVS results for a mesh, has none), and every model's head node and face range;
+/// `num_clusters` at most the leaf count;
 /// `pvs_offsets` empty or one per cluster, each pointing at a row that decodes; GVS cell face
 /// ranges and GVS face indices; `face_draw` and `texture_sizes` empty or one per face (texture),
 /// texture axes finite.
@@ -142,6 +144,11 @@ pub fn validate(level: &Level) -> Result<(), SlvlError> {
         c.finite("bounds", m.mins.iter().chain(&m.maxs))?;
         c.child(m.head_node, nodes, leaves)?;
         c.range(m.first_face, m.num_faces, faces, "faces")?;
+    }
+    if level.models.is_empty() && !(level.nodes.is_empty() && level.leaves.is_empty()) {
+        let (n, l) = (level.nodes.len(), level.leaves.len());
+        let detail = format!("no world model (model 0) to root the tree of {n} nodes and {l} leaves");
+        return Err(Check::at(LumpKind::Models, 0).fail(detail));
     }
     validate_pvs(level)?;
     for (i, cell) in level.gvs_cells.iter().enumerate() {

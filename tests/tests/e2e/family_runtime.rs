@@ -178,7 +178,7 @@ fn info_reports_the_published_counts_of_quake2_and_half_life_files() {
 fn our_quake2_vis_has_no_miss_by_ray_sampling() {
     let (Some(raw), Some(prt)) = (shared("q2/dm2.bsp"), shared("q2/dm2.prt")) else { return };
     let (dir, ours) = vised_copy(&raw, &prt, "dm2");
-    let level = sightline_validate::load::load_level(&ours).expect("level");
+    let level = sightline_validate::load::load_level(&ours, &sightline_validate::NoProgress).expect("level");
     assert_eq!(level.num_clusters, 869);
     let pvs = level_pvs(&level).expect("pvs");
     let opts = Options { rays: 300_000, oracle: OracleChoice::Both, ..Options::default() };

@@ -17,7 +17,8 @@ const E1M1_EYE: DVec3 = DVec3::new(480.0, -352.0, 110.0);
 
 fn e1m1() -> Option<sightline_formats::Level> {
     let path = sightline_tests::shared_maps()?.join("ericw/e1m1.vis.bsp");
-    path.is_file().then(|| load::load_level(&path).unwrap_or_else(|e| panic!("{e:#}")))
+    path.is_file()
+        .then(|| load::load_level(&path, &sightline_validate::NoProgress).unwrap_or_else(|e| panic!("{e:#}")))
 }
 
 fn distinct_colours(img: &Image) -> usize {

@@ -19,7 +19,7 @@ fn ericw(name: &str) -> Option<PathBuf> {
 fn reference_pvs_has_no_misses_at_the_default_budget() {
     for (name, oracle) in [("dm1.vis.bsp", OracleChoice::Both), ("e1m1.vis.bsp", OracleChoice::Both)] {
         let Some(path) = ericw(name) else { return };
-        let level = load::load_level(&path).unwrap();
+        let level = load::load_level(&path, &sightline_validate::NoProgress).unwrap();
         let pvs = level_pvs(&level).unwrap();
         let v = validate(&level, &pvs, &Options { oracle, ..Options::default() }, &NoProgress).unwrap();
         eprint!("{}", v.report.text());
@@ -59,7 +59,7 @@ fn proved_pairs(pvs: &BitMatrix, sampled: &BitMatrix, count: usize, seed: u64) -
 #[test]
 fn removed_pairs_are_each_reported_with_a_segment_that_proves_them() {
     let Some(path) = ericw("dm1.vis.bsp") else { return };
-    let level = load::load_level(&path).unwrap();
+    let level = load::load_level(&path, &sightline_validate::NoProgress).unwrap();
     let pvs = level_pvs(&level).unwrap();
     let opts = Options { rays: 2_000_000, oracle: OracleChoice::Tree, ..Options::default() };
     let clean = validate(&level, &pvs, &opts, &NoProgress).unwrap();
@@ -108,7 +108,7 @@ fn bsp_without_pair(bytes: &[u8], a: usize, b: usize) -> Vec<u8> {
 #[test]
 fn cli_exits_with_a_finding_on_a_bsp_missing_one_visible_pair() {
     let Some(path) = ericw("dm1.vis.bsp") else { return };
-    let level = load::load_level(&path).unwrap();
+    let level = load::load_level(&path, &sightline_validate::NoProgress).unwrap();
     let pvs = level_pvs(&level).unwrap();
     let opts = Options { rays: 1_000_000, oracle: OracleChoice::Tree, ..Options::default() };
     let sampled = validate(&level, &pvs, &opts, &NoProgress).unwrap().sampled.remove(0).pop().unwrap();
@@ -158,7 +158,7 @@ fn detection_rate_on_portal_adjacent_pairs() {
     else {
         return;
     };
-    let level = load::load_level(&bsp_path).unwrap();
+    let level = load::load_level(&bsp_path, &sightline_validate::NoProgress).unwrap();
     let pvs = level_pvs(&level).unwrap();
     // Sky blocks sight (as in Quake's vis), so pairs inside sky are never sampled: leave them out.
     let tree = BspTree::new(&level).unwrap();
@@ -195,7 +195,7 @@ fn detection_rate_on_portal_adjacent_pairs() {
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
     let Some(path) = ericw("dm1.vis.bsp") else { return };
-    let level = load::load_level(&path).unwrap();
+    let level = load::load_level(&path, &sightline_validate::NoProgress).unwrap();
     let mut pvs = level_pvs(&level).unwrap();
     // A few removed pairs so that misses (and their segments) are compared too.
     let opts = Options { rays: 600_000, oracle: OracleChoice::Both, ..Options::default() };

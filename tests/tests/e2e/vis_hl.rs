@@ -129,7 +129,7 @@ fn sdhlt_portal_leaves_expand_to_their_bsp_leaves_and_threads_do_not_matter() {
     assert_eq!(several, 38, "the README's 38 portal leaves of 2-16 BSP leaves");
 
     // No miss at a moderate budget, by either oracle.
-    let level = load::load_level(&one).expect("level");
+    let level = load::load_level(&one, &sightline_validate::NoProgress).expect("level");
     let pvs = level_pvs(&level).expect("pvs");
     let opts = Options { rays: 300_000, oracle: OracleChoice::Both, ..Options::default() };
     let v = validate(&level, &pvs, &opts, &NoProgress).expect("validate");

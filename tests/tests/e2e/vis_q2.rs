@@ -168,3 +168,46 @@ fn phs_only_repairs_ericw_phs_and_keeps_every_pvs_byte() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Vis and `--phs-only` take exactly the Quake 2 files the other readers take: a non-finite plane,
+/// an edge naming a vertex past the vertices and a face naming edges past the surfedges are each
+/// refused by vis and `--phs-only`, before anything is written, with the error every reader gives
+/// (naming the file and the record's byte).
+#[test]
+fn vis_refuses_what_every_reader_refuses() {
+    let (Some(plain), Some(vised), Some(prt)) =
+        (q2_map("start.bsp"), q2_map("start.ericw.bsp"), q2_map("start.prt"))
+    else {
+        return;
+    };
+    let dir = temp_dir("refuses");
+    for (name, source, phs_only) in [("plain", &plain, false), ("vised", &vised, true)] {
+        let bytes = std::fs::read(source).expect("read");
+        let file = q2::read(&bytes).expect("the shared file reads");
+        let lump = |i: usize| file.lumps[i].offset;
+        let (planes, edges, faces) = (lump(1), lump(11), lump(6));
+        let vertices = file.lumps[2].length / 12;
+        let surfedges = file.lumps[12].length / 4;
+        let spoilers: [(&str, usize, Vec<u8>); 3] = [
+            ("plane 0", planes, f32::NAN.to_le_bytes().to_vec()),
+            ("edge 0", edges, (vertices as u16).to_le_bytes().to_vec()),
+            ("face 0", faces + 4, (surfedges as i32).to_le_bytes().to_vec()),
+        ];
+        for (what, at, value) in spoilers {
+            let mut bad = bytes.clone();
+            bad[at..at + value.len()].copy_from_slice(&value);
+            let expected =
+                sightline_formats::bsp::CompiledMap::read(bad.clone()).expect_err(what).to_string();
+            assert!(expected.contains(what), "{expected}");
+            let path = dir.join(format!("{name}.bsp"));
+            std::fs::write(&path, &bad).expect("write");
+            std::fs::copy(&prt, dir.join(format!("{name}.prt"))).expect("copy .prt");
+            let opts = DropInOptions { phs_only, ..DropInOptions::default() };
+            let e = dropin::run(&path, &opts, &NoProgress, Instant::now()).expect_err(what);
+            let chain = format!("{:#}", anyhow::Error::from(e));
+            assert_eq!(chain, format!("{}: {expected}", path.display()), "{name} {what}");
+            assert_eq!(std::fs::read(&path).expect("read"), bad, "{name} {what}: nothing written");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

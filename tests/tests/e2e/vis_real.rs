@@ -306,7 +306,7 @@ fn drop_in_bsp_is_readable_exact_and_leaves_other_lumps_alone() {
     assert!(mine <= theirs, "ours {mine} > reference {theirs}");
 
     // Ray sampling finds no visible pair missing from the written PVS.
-    let level = load::load_level(&bsp_path).unwrap();
+    let level = load::load_level(&bsp_path, &sightline_validate::NoProgress).unwrap();
     let pvs = level_pvs(&level).unwrap();
     let opts = Options { rays: 400_000, oracle: OracleChoice::Both, ..Options::default() };
     let v = validate(&level, &pvs, &opts, &NoProgress).unwrap();
@@ -344,7 +344,7 @@ fn coarsened_vis_hides_no_leaf_a_ray_reaches() {
         drop_in(&bsp_path, VisOptions { threads: 1, ..vis });
         let coarse = bsp_pairs(&bsp_path);
         assert!(coarse > fine, "{tag}: {coarse} pairs, fine {fine}: nothing was merged");
-        let level = load::load_level(&bsp_path).unwrap();
+        let level = load::load_level(&bsp_path, &sightline_validate::NoProgress).unwrap();
         let pvs = level_pvs(&level).unwrap();
         let opts = Options { rays: 400_000, oracle: OracleChoice::Both, ..Options::default() };
         let v = validate(&level, &pvs, &opts, &NoProgress).unwrap();

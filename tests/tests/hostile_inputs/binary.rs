@@ -8,8 +8,10 @@
 //! Each run is a child process under [`TIMEOUT`] (killed past it) and, through util-linux
 //! `prlimit`, an address-space limit of [`MEMORY`] bytes (an allocation past it aborts the child,
 //! which fails the test). A run passes when it exits 0, 1 or 2, prints no panic, and on exit 2 its
-//! error names the mutated file and a place in it (a number or a place word). Runs go over two
-//! worker threads; the suite's runs take well under a minute on 2 cores.
+//! error names the mutated file and a place in it (a number or a place word). Every reader of a
+//! compiled map applies the same checks: a mutated `.bsp` that `info` refuses, `vis` and
+//! `validate` refuse too. Runs go over two worker threads; the suite's runs take well under a
+//! minute on 2 cores.
 //!
 //! The binary is the one cargo built beside this test (`target/<profile>/sightline`), which
 //! `cargo test --workspace` builds; the test says so when it is missing.
@@ -368,6 +370,22 @@ fn formats(bin: &Path, dir: &Path) -> Vec<Format> {
             commands: vec![vec!["vis", "hostile.bsp", "--threads", "1"], vec!["info", "IN"]],
         });
     }
+    // A vised Quake 2 file, for the PHS alone (`--phs-only` reads the file as vis does).
+    if let Some(path) = sightline_tests::shared_map("ericw-testmaps/q2_detail_leak_test.ericw.bsp") {
+        all.push(Format {
+            name: "ibsp38-vised",
+            file: "hostile.bsp",
+            seed: read(&path),
+            text: false,
+            header: bsp::q2::HEADER_BYTES,
+            beside: Vec::new(),
+            commands: vec![
+                vec!["vis", "IN", "--phs-only"],
+                vec!["info", "IN"],
+                vec!["validate", "IN", "--rays", "2000", "--threads", "1"],
+            ],
+        });
+    }
     all
 }
 
@@ -399,9 +417,12 @@ fn every_command_on_every_format_exits_0_1_or_2_naming_file_and_place() {
     let next = AtomicUsize::new(0);
     let failures = Mutex::new(Vec::new());
     let refused: Vec<AtomicUsize> = formats.iter().map(|_| AtomicUsize::new(0)).collect();
+    // Which (format, mutation, command) runs refused their input.
+    let refusals = Mutex::new(std::collections::BTreeSet::new());
     std::thread::scope(|s| {
         for worker in 0..2 {
             let (jobs, formats, next, failures, refused) = (&jobs, &formats, &next, &failures, &refused);
+            let refusals = &refusals;
             let (bin, dir) = (&bin, &dir);
             s.spawn(move || {
                 let case = dir.join(format!("worker{worker}"));
@@ -417,6 +438,7 @@ fn every_command_on_every_format_exits_0_1_or_2_naming_file_and_place() {
                     let (problem, was_refused) = check(bin, prlimit, &case, &files, &args, format.file);
                     if was_refused {
                         refused[*f].fetch_add(1, Ordering::Relaxed);
+                        refusals.lock().expect("refusals").insert((*f, *i, *c));
                     }
                     if let Some(problem) = problem {
                         let kept = dir.join(format!("fail-{}-{i}-{c}-{}", format.name, format.file));
@@ -430,6 +452,25 @@ fn every_command_on_every_format_exits_0_1_or_2_naming_file_and_place() {
         }
     });
     let mut failures = failures.into_inner().expect("failures");
+    // One set of checks for every reader: a compiled map `info` refuses, `vis` and `validate`
+    // refuse too (vis once rewrote Quake 2 files whose planes, edges or faces the others refuse).
+    let refusals = refusals.into_inner().expect("refusals");
+    for (f, format) in formats.iter().enumerate().filter(|(_, format)| format.file.ends_with(".bsp")) {
+        let command = |name: &str| format.commands.iter().position(|c| c[0] == name && c[1] == "IN");
+        let Some(info) = command("info") else { continue };
+        for other in ["vis", "validate"].into_iter().filter_map(command) {
+            for i in (0..MUTATIONS).filter(|&i| refusals.contains(&(f, i, info))) {
+                if !refusals.contains(&(f, i, other)) {
+                    let line = format!(
+                        "{} mutation {i}: `info` refuses it but `{}` takes it",
+                        format.name,
+                        format.commands[other].join(" ")
+                    );
+                    failures.push((f, i, other, line));
+                }
+            }
+        }
+    }
     failures.sort_by_key(|(f, i, c, _)| (*f, *i, *c));
     let count = failures.len();
     let list: Vec<String> = failures.into_iter().take(25).map(|(.., l)| l).collect();

@@ -11,6 +11,7 @@ use sightline_formats::bsp::{BspError, CompiledMap};
 use sightline_formats::obj::ObjError;
 use sightline_formats::slvl::SlvlError;
 use sightline_job::input::{InputError, read_input};
+use sightline_job::progress::Progress;
 
 use super::geom::Cell;
 use crate::scenegen::{self, SpecError};
@@ -137,8 +138,13 @@ pub enum LoadError {
 /// Load the scene `input` names, and the level when it is one: a generated scene
 /// (`gen:<kind>:<size>`, see [`scenegen::parse_spec`], from `scene_seed`), an `.obj` mesh, a
 /// `.slvl` level or a compiled `.bsp` of any Quake-family game (as [`CompiledMap::to_level`]
-/// makes it a level), by the extension, in any case.
-pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), LoadError> {
+/// makes it a level), by the extension, in any case. Each repair of a `.bsp`'s stored bounds that
+/// view cells use (an open leaf's, a model's) is a warning to `progress` naming the file.
+pub fn load(
+    input: &str,
+    scene_seed: u64,
+    progress: &dyn Progress,
+) -> Result<(TriScene, Option<Level>), LoadError> {
     if let Some(spec) = scenegen::parse_spec(input) {
         let (kind, size) = spec?;
         return Ok((generated(kind, size, scene_seed), None));
@@ -148,7 +154,7 @@ pub fn load(input: &str, scene_seed: u64) -> Result<(TriScene, Option<Level>), L
     match ext.as_str() {
         "obj" => Ok((load_obj(path)?, None)),
         "slvl" | "bsp" => {
-            let level = if ext == "bsp" { read_bsp(path)? } else { read_level(path)? };
+            let level = if ext == "bsp" { read_bsp(path, progress)? } else { read_level(path)? };
             Ok((from_level(&level), Some(level)))
         }
         _ => Err(LoadError::Input(input.to_string())),
@@ -172,12 +178,15 @@ fn read_level(path: &Path) -> Result<Level, LoadError> {
 }
 
 /// Read the compiled map at `path` (any Quake-family game) as a level, and validate it as a
-/// `.slvl` is validated when read.
-fn read_bsp(path: &Path) -> Result<Level, LoadError> {
+/// `.slvl` is validated when read; repairs of its bounds are warnings to `progress`.
+fn read_bsp(path: &Path, progress: &dyn Progress) -> Result<Level, LoadError> {
     let bytes = read_input(path)?;
-    let level = CompiledMap::read(bytes)
-        .and_then(|map| map.to_level())
-        .map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
+    let map =
+        CompiledMap::read(bytes).map_err(|source| LoadError::Bsp { path: path.to_path_buf(), source })?;
+    let (level, repairs) = map.to_level_with_repairs();
+    for r in repairs {
+        progress.warn(&format!("{}: {r}", path.display()));
+    }
     sightline_formats::slvl::validate(&level)
         .map_err(|source| LoadError::Level { path: path.to_path_buf(), source })?;
     Ok(level)
@@ -232,10 +241,11 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("broken.BSP");
         std::fs::write(&path, b"IBSP\x26\0\0\0 too short").expect("write");
-        let err = load(path.to_str().expect("utf-8 path"), 0).expect_err("a broken .bsp loads");
+        let err = load(path.to_str().expect("utf-8 path"), 0, &sightline_job::progress::NoProgress)
+            .expect_err("a broken .bsp loads");
         std::fs::remove_dir_all(&dir).ok();
         assert!(matches!(&err, LoadError::Bsp { path: p, .. } if p.ends_with("broken.BSP")), "{err:?}");
-        let err = load("scene.txt", 0).expect_err("a .txt loads");
+        let err = load("scene.txt", 0, &sightline_job::progress::NoProgress).expect_err("a .txt loads");
         assert!(err.to_string().contains("a .slvl or a .bsp"), "{err}");
     }
 

@@ -394,7 +394,7 @@ fn quake2_vis_farplane_hides_only_clusters_farther_apart_and_keeps_the_phs_a_uni
     let phs = vb.decode_all(Q2Row::Phs).expect("rows");
     let bit = |rows: &[u8], i: usize, k: usize| rows[i * rb + k / 8] & (1 << (k % 8)) != 0;
     // The nearest distance between the stored bounds of any leaf of cluster i and any of k.
-    let level = q2::to_level(&bytes_b, &b).expect("level");
+    let level = q2::to_level(&b);
     let gap = |i: usize, k: usize| {
         let of = |c: usize| level.leaves.iter().filter(move |l| l.cluster == c as i32);
         of(i)
@@ -701,7 +701,8 @@ fn a_level_without_models_is_an_error_naming_the_file_and_the_lump() {
     std::fs::write(&bad, slvl::write(&level, &slvl::WriteOptions::default())).expect("write");
     let png = dir.join("x.png");
     for args in [
-        &["validate", s(&bad), "--rays", "1000"][..],
+        &["info", s(&bad)][..],
+        &["validate", s(&bad), "--rays", "1000"],
         &["render", s(&bad), "--plan", "--size", "8x8", "-o", s(&png)],
         &["bench", s(&bad), "--frames", "1"],
     ] {
@@ -709,8 +710,71 @@ fn a_level_without_models_is_an_error_naming_the_file_and_the_lump() {
         assert_eq!(code(&o), 2, "{args:?}: {}", stderr(&o));
         let line = error_line(&o);
         assert!(line.starts_with(&format!("{}: ", bad.display())), "{args:?} names the file first: {line}");
-        assert!(line.contains("models lump is empty"), "{args:?} names the lump: {line}");
+        assert!(
+            line.contains("lump models") && line.contains("no world model"),
+            "{args:?} names the lump: {line}"
+        );
     }
+}
+
+/// A flag that cannot apply to the input, or a value no input takes, is an error that names the
+/// input first.
+#[test]
+fn flags_that_cannot_apply_to_the_input_are_errors_naming_it() {
+    let dir = temp_dir("flags");
+    let level = compile(&dir, "room.map");
+    let (bytes, prt_text) = tiny_bsp();
+    let bsp = dir.join("tiny.bsp");
+    std::fs::write(&bsp, &bytes).expect("write");
+    std::fs::write(dir.join("tiny.prt"), prt_text).expect("write");
+    let prt = dir.join("tiny.prt");
+    let obj = maps().join("scene.obj");
+    let png = dir.join("x.png");
+    let cases: [(&Path, Vec<&str>); 10] = [
+        (&bsp, vec!["vis", "--phs-only"]),
+        (&prt, vec!["vis", "--farplane", "100"]),
+        (&prt, vec!["vis", "--portals-from-bsp"]),
+        (&bsp, vec!["vis", "--water", "opaque"]),
+        (&bsp, vec!["vis", "-o", "x.vis"]),
+        (&level, vec!["validate", "--offset", "99"]),
+        (&level, vec!["bench", "--frames", "0"]),
+        (&level, vec!["render", "--plan", "--pvs-matrix", "-o", s(&png)]),
+        (&level, vec!["render", "--leak", "", "-o", s(&png)]),
+        (&obj, vec!["gvs", "--cell", "leaves", "--views", "0"]),
+    ];
+    for (input, flags) in cases {
+        let mut args = flags.clone();
+        args.insert(1, s(input));
+        let o = run(&args);
+        assert_eq!(code(&o), 2, "{args:?}: {}", stderr(&o));
+        let line = error_line(&o);
+        assert!(
+            line.starts_with(&format!("{}: ", input.display())),
+            "{args:?} names the input first: {line}"
+        );
+    }
+}
+
+/// `info` on an `.obj` says what it skipped, and an `.obj` without a usable triangle is an error
+/// naming the file.
+#[test]
+fn info_on_an_obj_says_what_was_skipped() {
+    let dir = temp_dir("obj-info");
+    let points = dir.join("points.obj");
+    std::fs::write(&points, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\nf 3\n").expect("write");
+    let o = run(&["info", s(&points)]);
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    let line = error_line(&o);
+    assert!(line.starts_with(&format!("{}: no usable triangle", points.display())), "{line}");
+    assert!(line.contains("2 faces skipped"), "{line}");
+    let some = dir.join("some.obj");
+    std::fs::write(&some, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n").expect("write");
+    let o = run(&["info", s(&some)]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("triangles: 1\nskipped faces: 1 (fewer than three vertices"), "{text}");
+    let j = stdout_json(&run(&["info", s(&some), "--json"]));
+    assert_eq!((j["triangles"].as_u64(), j["skipped_faces"].as_u64()), (Some(1), Some(1)), "{j}");
 }
 
 #[test]
@@ -1398,4 +1462,41 @@ fn an_output_that_is_an_input_is_refused_before_any_work() {
         assert!(!png.exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A compiled map of another game is named as its own game (one place names games): `portals`
+/// on a Quake 2 or Quake 3 file says which it is.
+#[test]
+fn a_bsp_of_another_game_is_named_by_its_game() {
+    for (rel, named) in [("q2/start.bsp", "Quake 2 BSP (IBSP 38)"), ("q3/fan.bsp", "Quake 3 BSP (IBSP 46)")] {
+        let Some(path) = shared_map(rel) else { return };
+        let dir = temp_dir("other-game");
+        let o = run(&["portals", s(&path), "-o", s(&dir.join("x.prt"))]);
+        assert_eq!(code(&o), 2, "{}", stderr(&o));
+        let line = error_line(&o);
+        assert!(line.starts_with(&format!("{}: ", path.display())), "{line}");
+        assert!(line.contains(named), "{rel}: {line}");
+    }
+}
+
+/// A `.bsp` whose name is not UTF-8 finds the portal file beside it, as any other (it once
+/// looked for a portal file named ";").
+#[cfg(unix)]
+#[test]
+fn vis_finds_the_portal_file_beside_a_bsp_whose_name_is_not_utf8() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = temp_dir("not-utf8");
+    let (bytes, prt) = tiny_bsp();
+    let name = |ext: &str| dir.join(OsStr::from_bytes(&[b"m\xff.".as_slice(), ext.as_bytes()].concat()));
+    std::fs::write(name("bsp"), &bytes).expect("write");
+    std::fs::write(name("prt"), prt).expect("write");
+    let o = bin().arg("vis").arg(name("bsp")).arg("--json").output().expect("runs");
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(stdout_json(&o)["prt_format"], "PRT1", "vis read the portal file beside it");
+    // An external `.vis` record would spell another name than the file's: refused, naming it.
+    let o = bin().arg("vis").arg(name("bsp")).arg("--external-vis").output().expect("runs");
+    assert_eq!(code(&o), 2, "{}", stderr(&o));
+    assert!(error_line(&o).contains("names its map in UTF-8"), "{}", stderr(&o));
+    assert!(!dir.join(OsStr::from_bytes(b"m\xff.vis")).exists());
 }

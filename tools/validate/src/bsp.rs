@@ -38,6 +38,9 @@ pub struct Crossing {
     pub t0: f64,
     /// Segment parameter where the trace leaves it.
     pub t1: f64,
+    /// Unit normal of the plane through which the trace enters the leaf, facing the segment's
+    /// start (`-direction` for the leaf the segment starts in).
+    pub normal: DVec3,
 }
 
 /// Where a trace stopped: the first solid leaf, entered at parameter `t` through a plane whose
@@ -195,10 +198,10 @@ impl<'a> BspTree<'a> {
                             return Some(hit);
                         }
                         first_hit.get_or_insert(hit);
-                        out.push(Crossing { leaf: leaf as u32, t0, t1 });
+                        out.push(Crossing { leaf: leaf as u32, t0, t1, normal: entry_normal });
                         break;
                     }
-                    out.push(Crossing { leaf: leaf as u32, t0, t1 });
+                    out.push(Crossing { leaf: leaf as u32, t0, t1, normal: entry_normal });
                     break;
                 }
                 let node = &self.level.nodes[c as usize];

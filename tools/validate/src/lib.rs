@@ -11,8 +11,10 @@
 //! - **tree**: rays walk the level's BSP tree and stop in the first solid leaf;
 //! - **mesh**: rays stop at the first world face (triangles in a BVH; liquid faces, texture names
 //!   starting with `*`, let sight through), and the open leaves on the free part of the ray are
-//!   found by walking the tree *through* solid leaves. A tree whose solid leaves block more than
-//!   the geometry does cannot hide a PVS that relies on them.
+//!   found by walking the tree *through* solid slivers (slabs thinner than half a unit); any
+//!   other solid stops the ray as in the tree oracle, faces or not (a brush textured `skip` on
+//!   every side is solid without faces). The oracles agree on what is solid, and a PVS that
+//!   relies on a sliver of the tree that no face closes is still caught.
 //!
 //! Every cluster pair a bundle agrees on is visible; a visible pair missing from the PVS is a
 //! **miss**, reported with a segment between points of the two leaves.
@@ -346,8 +348,14 @@ mod tests {
     /// The corridor with its wall thinned to a 0.01-unit solid sliver at x = 128 that no face
     /// bounds (a tree artifact: the geometry is open there), and the corridor's six outer faces.
     fn corridor_with_sliver() -> Level {
+        corridor_with_unfaced_wall(0.01)
+    }
+
+    /// The corridor with its wall, `thickness` units from x = 128, bounded by no face (a sliver,
+    /// or a brush textured `skip` on every side), and the corridor's six outer faces.
+    fn corridor_with_unfaced_wall(thickness: f32) -> Level {
         let mut level = corridor();
-        level.planes[3].dist = 128.01;
+        level.planes[3].dist = 128.0 + thickness;
         let (x0, x1, y0, y1, z0, z1) = (0.0f32, 200.0, -32.0, 32.0, 0.0, 64.0);
         // Each face is seen from the inside; winding order does not matter to the BVH.
         let quads: [(u32, [[f32; 3]; 4]); 6] = [
@@ -383,6 +391,28 @@ mod tests {
         assert_eq!(found, vec![(0, 2), (1, 2), (2, 0), (2, 1)]);
         let d = v.report.disagreement.unwrap();
         assert_eq!((d.pairs_only_tree, d.pairs_only_mesh), (0, 4));
+    }
+
+    /// What is solid is the tree's for both oracles: a wall with no face on it blocks the mesh
+    /// oracle as it blocks the tree oracle, down to a slab thinner than [`mesh::SLIVER`], which the
+    /// mesh oracle alone sees through.
+    #[test]
+    fn mesh_oracle_takes_unfaced_solid_for_solid_unless_it_is_a_sliver() {
+        // A PVS that trusts the wall: cluster 2 sees only itself.
+        let mut pvs = BitMatrix::new(3);
+        for (a, b) in [(0, 0), (0, 1), (1, 0), (1, 1), (2, 2)] {
+            pvs.set(a, b);
+        }
+        let opts = Options { rays: 200_000, ..Options::default() };
+        let sliver = mesh::SLIVER as f32;
+        for (thickness, seen_through) in [(8.0, false), (1.2 * sliver, false), (0.8 * sliver, true)] {
+            let v = validate(&corridor_with_unfaced_wall(thickness), &pvs, &opts, &NoProgress).unwrap();
+            let [tree, mesh] = &v.report.oracles[..] else { panic!("two oracles") };
+            assert!(tree.misses.is_empty(), "{thickness}: the tree oracle stops at the wall");
+            assert_eq!(mesh.misses.len(), if seen_through { 4 } else { 0 }, "{thickness}");
+            let d = v.report.disagreement.unwrap();
+            assert_eq!((d.pairs_only_tree, d.pairs_only_mesh), (0, if seen_through { 4 } else { 0 }));
+        }
     }
 
     #[test]

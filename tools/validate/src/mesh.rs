@@ -8,9 +8,14 @@
 //! face over solid, which no vis sees through). Every other face, sky included, blocks
 //! (conservative: fewer pairs, never a false miss). The open
 //! leaves on the free part are found by walking the tree *through* solid leaves, so a solid sliver
-//! the tree has but the geometry does not (no face on it) cannot stop the ray. The walk does stop
-//! at a solid stretch longer than [`MAX_SOLID_GAP`] units: beyond it the ray has left the faced
-//! world (for example through the unfaced outside of a sky brush) and its leaves mean nothing.
+//! the tree has but the geometry does not (no face on it) cannot stop the ray.
+//!
+//! What is solid is the tree's, as for the tree oracle: a run of solid leaves on the free part
+//! stops the ray unless it is a **sliver**, a slab the ray enters and leaves through parallel
+//! planes less than [`SLIVER`] units apart. So solid without drawn faces blocks here as in the
+//! tree oracle: a brush textured `skip` on every side (solid, no faces), the corner of a solid
+//! the ray only clips, the unfaced outside of a sky brush. The two oracles then disagree only
+//! where the tree has a sliver the faces do not close.
 
 use glam::{DVec3, Vec3};
 use sightline_formats::Contents;
@@ -41,8 +46,11 @@ pub enum MeshError {
     NoFaces,
 }
 
-/// Longest solid stretch along a free ray that still counts as a tree artifact to pass through.
-pub const MAX_SOLID_GAP: f64 = 8.0;
+/// Thickest slab of solid leaves, between parallel planes, that the mesh oracle takes for a tree
+/// artifact and sees through (world units, measured across the slab).
+pub const SLIVER: f64 = 0.5;
+/// Cosine below which the planes a ray enters and leaves a solid run through are not parallel.
+const PARALLEL: f64 = 0.999;
 /// Distance from a face at which its two sides are probed.
 const FACE_PROBE: f64 = 0.05;
 /// Step past a see-through face before casting again.
@@ -142,13 +150,25 @@ impl RayOracle for MeshOracle<'_> {
         }
         s.all.clear();
         self.tree.trace_through(origin, origin + dir * free, &mut s.all, &mut s.stack);
+        let unit = dir.normalize_or_zero();
+        // The first crossing of the current run of solid leaves, if the ray is in one.
+        let mut run: Option<Crossing> = None;
         for c in &s.all {
-            let (t0, t1) = (c.t0 * free, c.t1 * free);
-            if self.tree.is_open(c.leaf as usize) {
-                out.push(Crossing { leaf: c.leaf, t0, t1 });
-            } else if t1 - t0 > MAX_SOLID_GAP {
-                break;
+            let c = Crossing { t0: c.t0 * free, t1: c.t1 * free, ..*c };
+            if !self.tree.is_open(c.leaf as usize) {
+                run.get_or_insert(c);
+                continue;
             }
+            if let Some(entry) = run.take() {
+                // Left the run through `c.normal`: a sliver only between parallel planes close
+                // together; anything else is solid, as the tree oracle has it.
+                let parallel = entry.normal.dot(c.normal) >= PARALLEL;
+                let across = (c.t0 - entry.t0) * unit.dot(entry.normal).abs();
+                if !(parallel && across < SLIVER) {
+                    return;
+                }
+            }
+            out.push(c);
         }
     }
 }

@@ -1,12 +1,13 @@
 //! A whole Quake 2 BSP (`IBSP` 38) as Sightline's [`Level`]: what the runtime, `validate` and
-//! `info` need beyond vis (planes, nodes, faces, leaves, models).
+//! `info` need beyond vis (planes, nodes, faces, leaves, models), decoded and checked when the file
+//! is read ([`super::read`]: vis takes exactly the files the other readers take).
 //!
 //! # Conventions
 //! - Records (Quake 2's `qfiles.h`): planes 20 bytes (as Quake 1), vertices 12, nodes 28 (`int32`
 //!   plane and children, `int16` bounds, `uint16` face range), texinfo 76 (two axes, flags, value,
 //!   a 32-byte texture name, next), faces 20 (as BSP29), leaves 28 ([`super::LEAF_BYTES`]),
 //!   leaf faces `uint16`, edges two `uint16`, surfedges `int32`, models 48 (bounds, origin, head
-//!   node, face range). Every index is checked before the level is built, so the result passes
+//!   node, face range). Every index is checked when the file is read, so the level passes
 //!   [`crate::slvl::validate`] and nothing here can panic on a hostile file; faces may not list
 //!   more corners in all than there are surfedges (each face has its own edge list in compiler
 //!   output), which keeps the level linear in the file.
@@ -29,11 +30,11 @@
 //!   kept. `texture_sizes` is empty: Quake 2 textures are external `.wal` files (their width and
 //!   height are in the `.wal` header), so the level does not know their sizes.
 
-use super::{LEAF_BYTES, Q2Bsp, lump};
-use crate::bsp::BspError;
+use super::{LEAF_BYTES, Q2Bsp, Q2Vis, lump};
 use crate::bsp::convert::Polygons;
 use crate::bsp::lumps::{invalid, lump_records};
 use crate::bsp::parse::{check_index, check_range, non_negative};
+use crate::bsp::{BspError, LumpEntry, bounds};
 use crate::level::{Contents, FaceDraw, Leaf, Level, Model, Node};
 use crate::tree_check::find_cycle;
 
@@ -75,6 +76,7 @@ pub fn contents(bits: i32) -> Contents {
     }
 }
 
+#[derive(Debug, Clone, PartialEq)]
 struct RawFace {
     plane: u32,
     back: bool,
@@ -85,10 +87,36 @@ struct RawFace {
     light_offset: i32,
 }
 
-/// Reads a whole Quake 2 BSP (`bytes`, already read as `file` by [`super::read`]) into a
-/// [`Level`], checking every index first (see the module docs).
-pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
-    let lumps = &file.lumps;
+/// Every lump a level needs beyond vis, decoded and checked by [`super::read`] (see the module
+/// docs): what [`to_level`] builds from.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Geometry {
+    entities: String,
+    planes: Vec<([f32; 3], f32)>,
+    vertices: Vec<[f32; 3]>,
+    edges: Vec<[u16; 2]>,
+    surfedges: Vec<i32>,
+    texture_names: Vec<String>,
+    texinfo: Vec<FaceDraw>,
+    faces: Vec<RawFace>,
+    leaf_faces: Vec<u32>,
+    leaves: Vec<Leaf>,
+    nodes: Vec<Node>,
+    models: Vec<Model>,
+    /// The visibility lump's clusters, or before vis the clusters the leaves name.
+    num_clusters: u32,
+}
+
+/// Decodes and checks every lump of a Quake 2 BSP that a level needs (`bytes` with the header
+/// `lumps`, whose leaves name `leaf_clusters` and whose visibility lump is `vis`): every index in
+/// range, planes and vertices finite, the node graph acyclic, a world model. Bounds are taken as
+/// stored ([`crate::bsp::bounds`] repairs them in the level).
+pub(super) fn read_geometry(
+    bytes: &[u8],
+    lumps: &[LumpEntry; super::NUM_LUMPS],
+    leaf_clusters: &[i32],
+    vis: Option<&Q2Vis>,
+) -> Result<Geometry, BspError> {
     let recs = |index: usize, size: usize| lump_records(bytes, lumps, &lump::NAMES, index, size);
 
     let ents = lumps[more::ENTITIES];
@@ -170,8 +198,8 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         check_index(at, "leaf face", i, f.into(), faces.len(), "faces")?;
     }
 
-    let mut leaves = Vec::with_capacity(file.leaf_clusters.len());
-    for ((at, mut r), &cluster) in recs(lump::LEAVES, LEAF_BYTES)?.zip(&file.leaf_clusters) {
+    let mut leaves = Vec::with_capacity(leaf_clusters.len());
+    for ((at, mut r), &cluster) in recs(lump::LEAVES, LEAF_BYTES)?.zip(leaf_clusters) {
         let i = leaves.len();
         let contents = contents(r.i32());
         let _cluster_area: [u8; 4] = r.take();
@@ -216,9 +244,6 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
     for (at, mut r) in recs(more::MODELS, 48)? {
         let i = models.len();
         let (mins, maxs, _origin) = (r.vec3(), r.vec3(), r.vec3());
-        if !mins.iter().chain(&maxs).all(|c| c.is_finite()) {
-            return Err(invalid(at, format!("model {i}"), "bounds not finite"));
-        }
         let head_node = r.i32();
         if !child_ok(head_node) {
             return Err(invalid(at, format!("model {i}"), format!("bad head node {head_node}")));
@@ -232,46 +257,82 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         return Err(invalid(lumps[more::MODELS].offset, "models", "no world model"));
     }
 
-    let face_draw = faces
-        .iter()
-        .map(|f| {
-            let info = texinfo.get(f.texinfo as usize).copied().unwrap_or(FaceDraw::NONE);
-            FaceDraw { styles: f.styles, light_offset: f.light_offset, ..info }
-        })
-        .collect();
-    let mut polygons = Polygons::new(planes.into_iter(), faces.len());
-    for f in &faces {
-        let first = f.first_edge as usize;
-        let corners = surfedges[first..first + f.num_edges as usize].iter().map(|&e| {
-            let edge = edges[e.unsigned_abs() as usize];
-            vertices[usize::from(if e >= 0 { edge[0] } else { edge[1] })]
-        });
-        polygons.push(f.plane, f.back, corners, f.texinfo);
-    }
-    let Polygons { planes, vertices, faces, .. } = polygons;
-
-    let (num_clusters, pvs_offsets, pvs_data) = match &file.vis {
-        Some(v) => (v.num_clusters, v.offsets.iter().map(|o| o[0]).collect(), v.data.clone()),
-        None => (file.leaf_cluster_count(), Vec::new(), Vec::new()),
-    };
+    let num_clusters = vis.map_or_else(|| cluster_count(leaf_clusters), |v| v.num_clusters);
     // Each cluster holds a leaf; more clusters than leaves is a damaged count.
     let num_clusters =
         u32::try_from(num_clusters).ok().filter(|&n| n as usize <= leaves.len()).ok_or_else(|| {
             let detail = format!("{num_clusters} clusters for {} leaves", leaves.len());
             invalid(lumps[lump::VISIBILITY].offset, "visibility lump", detail)
         })?;
-    Ok(Level {
+    Ok(Geometry {
         entities,
-        textures: texture_names,
         planes,
-        nodes,
-        leaves,
+        vertices,
+        edges,
+        surfedges,
+        texture_names,
+        texinfo,
+        faces,
         leaf_faces,
+        leaves,
+        nodes,
+        models,
+        num_clusters,
+    })
+}
+
+/// Clusters `leaf_clusters` name: the largest plus one.
+pub(super) fn cluster_count(leaf_clusters: &[i32]) -> usize {
+    leaf_clusters.iter().map(|&c| (c + 1).max(0) as usize).max().unwrap_or(0)
+}
+
+/// A whole Quake 2 BSP, read and checked by [`super::read`], as a [`Level`] (see the module
+/// docs); node, leaf and model bounds are the stored ones where usable, and [`bounds`] replaces
+/// the others.
+pub fn to_level(file: &Q2Bsp) -> Level {
+    let mut level = level_as_stored(file);
+    bounds::repair(&mut level);
+    level
+}
+
+/// [`to_level`] with the stored bounds as they are, usable or not.
+pub(crate) fn level_as_stored(file: &Q2Bsp) -> Level {
+    let g = &file.geometry;
+    let face_draw = g
+        .faces
+        .iter()
+        .map(|f| {
+            let info = g.texinfo.get(f.texinfo as usize).copied().unwrap_or(FaceDraw::NONE);
+            FaceDraw { styles: f.styles, light_offset: f.light_offset, ..info }
+        })
+        .collect();
+    let mut polygons = Polygons::new(g.planes.iter().copied(), g.faces.len());
+    for f in &g.faces {
+        let first = f.first_edge as usize;
+        let list = g.surfedges.get(first..first + f.num_edges as usize).unwrap_or_default();
+        let corners = list.iter().filter_map(|&e| {
+            let edge = g.edges.get(e.unsigned_abs() as usize)?;
+            g.vertices.get(usize::from(if e >= 0 { edge[0] } else { edge[1] })).copied()
+        });
+        polygons.push(f.plane, f.back, corners, f.texinfo);
+    }
+    let Polygons { planes, vertices, faces, .. } = polygons;
+    let (pvs_offsets, pvs_data) = match &file.vis {
+        Some(v) => (v.offsets.iter().map(|o| o[0]).collect(), v.data.clone()),
+        None => (Vec::new(), Vec::new()),
+    };
+    Level {
+        entities: g.entities.clone(),
+        textures: g.texture_names.clone(),
+        planes,
+        nodes: g.nodes.clone(),
+        leaves: g.leaves.clone(),
+        leaf_faces: g.leaf_faces.clone(),
         faces,
         vertices,
         portals: Vec::new(),
-        models,
-        num_clusters,
+        models: g.models.clone(),
+        num_clusters: g.num_clusters,
         pvs_offsets,
         pvs_data,
         gvs_cells: Vec::new(),
@@ -280,5 +341,5 @@ pub fn to_level(bytes: &[u8], file: &Q2Bsp) -> Result<Level, BspError> {
         // Quake 2 textures are external `.wal` files: the BSP does not size them.
         texture_sizes: Vec::new(),
         portal_file: None,
-    })
+    }
 }

@@ -107,7 +107,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let need = args.frames as u64 * BYTES_PER_FRAME;
     crate::limits::fits_memory(&format!("--frames {}", args.frames), need, 1)?;
     // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
-    let mut world = load::load_path(&args.input)?;
+    let mut world = load::load_path_with(&args.input, &crate::progress::Bars::new(true))?;
     if !world.has_vis() {
         eprintln!(
             "warning: {}: the level has no PVS (not vised): every cluster sees every other, so PVS culling hides nothing (run `sightline vis` on it)",

@@ -257,13 +257,13 @@ fn check(args: &Args) -> anyhow::Result<Checked> {
 
 fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<Outcome> {
     let Checked { params, variants, shift, cells: specs } = checked;
-    let (scene, level) = scene::load(&args.input, args.scene_seed)?;
+    let (scene, level) = scene::load(&args.input, args.scene_seed, &crate::progress::Bars::new(true))?;
     if scene.triangles.is_empty() {
         bail!("{}: no triangles in the whole file", args.input);
     }
     let mut cells = Vec::new();
     for spec in &specs {
-        cells.extend(cells_of(spec, &scene, level.as_ref())?);
+        cells.extend(cells_of(spec, &scene, level.as_ref()).with_context(|| args.input.clone())?);
     }
     if let Some(k) = args.max_cells
         && k < cells.len()
@@ -271,7 +271,7 @@ fn run_in_pool(args: &Args, checked: Checked, threads: usize) -> anyhow::Result<
         cells = cells::evenly(&cells, k);
     }
     if cells.is_empty() {
-        bail!("no view cells");
+        bail!("{}: no view cells", args.input);
     }
     let t0 = Instant::now();
     let bvh = Bvh::build(&scene.triangles);
@@ -667,7 +667,7 @@ fn cells_of(
     match *spec {
         CellSpec::Auto => {
             if scene.suggested.is_empty() {
-                bail!("`--cell auto` needs a generated scene; give a size, `leaves` or a box");
+                bail!("`--cell auto` needs a generated scene (gen:...); give a size, `leaves` or a box");
             }
             Ok(scene.suggested.clone())
         }

@@ -7,10 +7,11 @@
 
 use std::path::Path;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use serde::Serialize;
+use sightline_formats::bsp::{CompiledMap, Parsed};
 use sightline_formats::geom::Aabb;
-use sightline_formats::{FileKind, bsp, map, obj, prt, slvl};
+use sightline_formats::{FileKind, Level, bsp, map, obj, prt, slvl};
 
 use crate::outcome::Outcome;
 
@@ -94,12 +95,14 @@ pub enum Details {
         /// Box around every brush corner; `null` without brushes.
         bounds: Option<Bounds>,
     },
-    /// A Wavefront `.obj`.
+    /// A Wavefront `.obj` with at least one triangle (one without is an error).
     Obj {
         /// Vertices after indexing (one per distinct `v/vt/vn` triple).
         vertices: usize,
         /// Triangles after triangulation.
         triangles: usize,
+        /// Faces of one or two vertices, skipped (they have no area).
+        skipped_faces: usize,
         /// Box around every vertex; `null` for an empty mesh.
         bounds: Option<Bounds>,
     },
@@ -244,21 +247,37 @@ pub fn report(path: &Path) -> anyhow::Result<InfoReport> {
         FileKind::Map => map_details(&map::decode(&bytes), &name)?,
         FileKind::Obj => {
             let mesh = obj::load_from_bytes(&bytes, &name)?;
+            if mesh.triangles.is_empty() {
+                bail!(
+                    "{name}: no usable triangle ({} faces skipped: fewer than three vertices)",
+                    mesh.skipped_faces
+                );
+            }
             Details::Obj {
                 vertices: mesh.positions.len(),
                 triangles: mesh.triangles.len(),
+                skipped_faces: mesh.skipped_faces,
                 bounds: Bounds::from_aabb(&mesh.bounds()),
             }
         }
         FileKind::Prt => prt_details(&prt::read_bytes(&bytes, &name)?),
-        FileKind::Bsp if bsp::q3::is_q3(&bytes) => {
-            q3_details(&bsp::q3::read(&bytes).with_context(|| format!("{name}: invalid Quake 3 BSP"))?)
+        FileKind::Bsp => {
+            let map = CompiledMap::read(bytes).with_context(|| format!("{name}: invalid BSP"))?;
+            // The world model's bounds are printed as the level has them: repaired when the file
+            // stores them unusable, which is said.
+            let (level, repairs) = map.to_level_with_repairs();
+            for r in &repairs {
+                eprintln!("warning: {name}: {r}");
+            }
+            let bounds = level.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs));
+            match map.parsed() {
+                Parsed::Quake(b) => bsp_details(b, bounds).with_context(|| format!("{name}: bad PVS row"))?,
+                Parsed::Quake2(f) => {
+                    q2_details(f, &level, bounds).with_context(|| format!("{name}: bad PVS row"))?
+                }
+                Parsed::Quake3(f) => q3_details(f, bounds),
+            }
         }
-        FileKind::Bsp if bsp::q2::is_q2(&bytes) => {
-            q2_details(&bytes).with_context(|| format!("{name}: invalid Quake 2 BSP"))?
-        }
-        FileKind::Bsp => bsp_details(&bsp::read(&bytes).with_context(|| format!("{name}: invalid BSP"))?)
-            .with_context(|| format!("{name}: bad PVS row"))?,
         FileKind::Slvl => slvl_details(&bytes, path).with_context(|| format!("{name}: invalid level"))?,
     };
     Ok(InfoReport { file: name, details })
@@ -297,7 +316,7 @@ fn prt_details(p: &prt::PortalFile) -> Details {
     }
 }
 
-fn bsp_details(b: &bsp::Bsp) -> anyhow::Result<Details> {
+fn bsp_details(b: &bsp::Bsp, bounds: Option<Bounds>) -> anyhow::Result<Details> {
     let stats = b.pvs_stats()?;
     Ok(Details::Bsp {
         game: if b.version == bsp::BspVersion::Bsp30 { "half-life" } else { "quake" },
@@ -312,11 +331,11 @@ fn bsp_details(b: &bsp::Bsp) -> anyhow::Result<Details> {
             .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
         pvs_pairs: stats.map(|s| s.pairs),
         phs_pairs: None,
-        bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+        bounds,
     })
 }
 
-fn q3_details(b: &bsp::q3::Q3Bsp) -> Details {
+fn q3_details(b: &bsp::q3::Q3Bsp, bounds: Option<Bounds>) -> Details {
     let vis = b.vis.as_ref();
     let counts: Vec<usize> =
         vis.map(|v| (0..v.num_clusters).map(|c| v.visible_from(c)).collect()).unwrap_or_default();
@@ -333,16 +352,14 @@ fn q3_details(b: &bsp::q3::Q3Bsp) -> Details {
             avg_visible_leaves: counts.iter().sum::<usize>() as f64 / counts.len() as f64,
             max_visible_leaves: counts.iter().copied().max().unwrap_or(0),
         }),
-        bounds: b.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+        bounds,
     }
 }
 
 /// A Quake 2 BSP: the whole file as a level ([`bsp::q2::to_level`]) for leaf counts and the PVS
 /// summary, the visibility lump for the cluster pairs of the PVS and the PHS.
-fn q2_details(bytes: &[u8]) -> anyhow::Result<Details> {
+fn q2_details(file: &bsp::q2::Q2Bsp, level: &Level, bounds: Option<Bounds>) -> anyhow::Result<Details> {
     use bsp::q2::{self, Q2Row};
-    let file = q2::read(bytes)?;
-    let level = q2::to_level(bytes, &file)?;
     let vis = file.vis.as_ref();
     Ok(Details::Bsp {
         game: "quake2",
@@ -358,7 +375,7 @@ fn q2_details(bytes: &[u8]) -> anyhow::Result<Details> {
             .map(|s| PvsSummary { avg_visible_leaves: s.avg_visible, max_visible_leaves: s.max_visible }),
         pvs_pairs: vis.map(|v| v.pairs(Q2Row::Pvs)).transpose()?,
         phs_pairs: vis.map(|v| v.pairs(Q2Row::Phs)).transpose()?,
-        bounds: level.models.first().map(|m| Bounds::from_f32(m.mins, m.maxs)),
+        bounds,
     })
 }
 
@@ -409,10 +426,13 @@ impl InfoReport {
                 line("sides", sides.to_string());
                 line("bounds", bounds(b));
             }
-            Details::Obj { vertices, triangles, bounds: b } => {
+            Details::Obj { vertices, triangles, skipped_faces, bounds: b } => {
                 line("kind", "obj".into());
                 line("vertices", vertices.to_string());
                 line("triangles", triangles.to_string());
+                if *skipped_faces > 0 {
+                    line("skipped faces", format!("{skipped_faces} (fewer than three vertices: no area)"));
+                }
                 line("bounds", bounds(b));
             }
             Details::Prt { format, leaves, clusters, portals, bounds: b } => {
@@ -519,6 +539,7 @@ mod tests {
             details: Details::Obj {
                 vertices: 3,
                 triangles: 1,
+                skipped_faces: 0,
                 bounds: Some(Bounds { mins: [0.0; 3], maxs: [1.0, 2.0, 3.0] }),
             },
         };

@@ -83,7 +83,7 @@ pub struct Args {
 fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>)> {
     let is_map = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("map"));
     if !is_map {
-        return Ok((load::load_level(path)?, None));
+        return Ok((load::load_level(path, &crate::progress::Bars::new(true))?, None));
     }
     let name = path.display().to_string();
     let bytes = read_input(path)?;
@@ -145,7 +145,7 @@ const PLAN_BYTES_PER_PIXEL: u64 = 12;
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let modes = [args.view.is_some(), args.plan, args.leak.is_some(), args.pvs_matrix];
     if modes.iter().filter(|&&m| m).count() != 1 {
-        bail!("give exactly one of --view, --plan, --leak, --pvs-matrix");
+        bail!("{}: give exactly one of --view, --plan, --leak, --pvs-matrix", args.input.display());
     }
     // Every number first, then the memory the picture takes, then the files: all before any work.
     let (w, h) = args.size;
@@ -214,9 +214,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE))
     } else {
         let leak = match &args.leak {
-            Some(p) if p.is_empty() => {
-                compiled_leak.context("--leak without a file needs a leaking .map as input")?
-            }
+            Some(p) if p.is_empty() => compiled_leak.with_context(|| {
+                format!("{}: --leak without a file needs a leaking .map as input", file())
+            })?,
             Some(p) => {
                 let bytes = read_input(Path::new(p))?;
                 read_pointfile(&String::from_utf8_lossy(&bytes), p)?

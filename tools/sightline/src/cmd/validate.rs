@@ -63,7 +63,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let level = load::load_level(&args.input)?;
+    let bars = Bars::new(args.json);
+    let level = load::load_level(&args.input, &bars)?;
     // Errors about the level name its file (the library only sees the level).
     let file = || args.input.display().to_string();
     if !level.has_vis() {
@@ -85,8 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         cancel: crate::interrupt::cancel(),
     };
     let pool = limits::pool(args.threads)?;
-    let mut v =
-        pool.install(|| validate::validate(&level, &pvs, &opts, &Bars::new(args.json))).with_context(file)?;
+    let mut v = pool.install(|| validate::validate(&level, &pvs, &opts, &bars)).with_context(file)?;
     v.report.input = args.input.display().to_string();
     crate::out::report(args.json, &v.report, || v.report.text())?;
     Ok(if v.report.misses() > 0 { Outcome::Finding } else { Outcome::Clean })

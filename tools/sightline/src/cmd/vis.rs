@@ -169,7 +169,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     };
     let quiet = args.json || args.no_progress;
     if args.external_vis && path.is_dir() {
-        let Some(out) = &args.output else { bail!("folder mode needs -o") };
+        let Some(out) = &args.output else { bail!("{}: folder mode needs -o", path.display()) };
         let report = with_progress(true, &opts, |progress| dropin::pack(&path, out, &opts, progress))?;
         crate::out::report(args.json, &report, || text::pack(&report))?;
         return Ok(if report.skipped.is_empty() { Outcome::Clean } else { Outcome::Finding });
