@@ -14,7 +14,9 @@ pub struct VisFlags {
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
     pub level: u8,
     /// Checkpoint file: resumed from when present, written every `--checkpoint-secs` and on
-    /// Ctrl-C. The same command run again resumes from it.
+    /// Ctrl-C. The same command run again resumes from it. A damaged or stale file (other input
+    /// or options) is refused; one crafted to pass the checks is trusted and can hide leaves:
+    /// resume only files a run of this program wrote.
     #[arg(long)]
     pub state: Option<PathBuf>,
     /// Seconds between checkpoints, 1 to 31536000 (a year).
