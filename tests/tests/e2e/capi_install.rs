@@ -45,7 +45,16 @@ fn installed_library_links_by_pkg_config_shared_and_static() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     let prefix = dir.join("prefix");
-    let target = sightline_binary().parent().expect("target/<profile>").to_path_buf();
+    // Cargo leaves the libraries it built for this crate's dev-dependency in `deps/`; a build of
+    // the package itself leaves them in `target/<profile>`.
+    let profile_dir = sightline_binary().parent().expect("target/<profile>").to_path_buf();
+    let deps = profile_dir.join("deps");
+    let target = if deps.join("libsightline_capi.so").is_file() && deps.join("libsightline_capi.a").is_file()
+    {
+        deps
+    } else {
+        profile_dir
+    };
     run(Command::new(workspace_root().join("tools/install-capi.sh")).arg(&prefix).arg("--from").arg(&target));
     for f in ["include/sightline.h", "lib/libsightline.so.0", "lib/libsightline.so", "lib/libsightline.a"] {
         assert!(prefix.join(f).exists(), "{f} installed");
