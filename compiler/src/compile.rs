@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use sightline_formats::{Aabb, Contents, prt};
+use sightline_formats::{Aabb, Contents};
 use sightline_job::cancel::Cancel;
 use sightline_job::progress::{Progress, phase};
 
@@ -214,8 +214,6 @@ fn compile_here(
     stats.faces = level.faces.len();
     stats.filled_leaves = fill.filled;
     let mut level = level;
-    // The level names the portal file written with it (none for a leaking map: no portal file).
-    level.portal_file = leak.is_none().then(|| prt::fingerprint(prt::write(&out.prt).as_bytes()));
     let mut vis_stats = None;
     if let (Some(vis_opts), None) = (&opts.vis, &leak) {
         let mut vis_opts = VisOptions { cancel: cancel.clone(), ..vis_opts.clone() };

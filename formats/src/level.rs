@@ -222,10 +222,10 @@ pub struct Level {
     pub gvs_cells: Vec<GvsCell>,
     /// Face indices listed by GVS cells.
     pub gvs_faces: Vec<u32>,
-    /// The portal file written with this level, as [`crate::hash::fnv1a`] of its bytes: the
-    /// compiler writes the level and its `.prt` together, and this tells whether a `.prt` beside a
-    /// level is the one that belongs to it. `None` when the level was written without one (a
-    /// leaking map, a level converted from a BSP, levels from before this field).
+    /// The portal file written with this level, as [`crate::prt::fingerprint`] of its bytes: set by
+    /// whoever writes the level and its `.prt` together (`sightline compile`), it tells whether a
+    /// `.prt` beside a level is the one that belongs to it. `None` when the level was written
+    /// without one (a leaking map, a level converted from a BSP, levels from before this field).
     pub portal_file: Option<u64>,
 }
 

@@ -255,8 +255,9 @@ impl Target {
             }
         }
         let msg = format!(
-            "{} is not a regular file (a FIFO, socket or block device): refusing to write to it",
-            path.display()
+            "{} is {}, not a regular file: refusing to write to it",
+            path.display(),
+            crate::input::kind(&meta)
         );
         Err(io::Error::new(io::ErrorKind::InvalidInput, msg))
     }

@@ -103,8 +103,8 @@ fn regular<'m>(path: &Path, meta: &'m Metadata) -> Result<&'m Metadata, InputErr
     Err(InputError::NotAFile { path: path.to_path_buf(), kind: kind(meta) })
 }
 
-/// What a file that is not regular is, for messages.
-fn kind(meta: &Metadata) -> &'static str {
+/// What a file that is not regular is, for messages (readers' and writers' alike).
+pub(crate) fn kind(meta: &Metadata) -> &'static str {
     let t = meta.file_type();
     if t.is_dir() {
         return "a folder";

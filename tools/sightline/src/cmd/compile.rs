@@ -95,7 +95,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     };
     // Some phases advance per brush or face from worker threads: gather 32 steps per update.
     let bars = Bars::batched(args.json, 32);
-    let compiled = match compile(&source, &opts, &bars) {
+    let mut compiled = match compile(&source, &opts, &bars) {
         Ok(c) => c,
         Err(CompileError::Leak(leak)) => {
             output::write(&pts_path, leak.pointfile().as_bytes(), t0)?;
@@ -122,16 +122,17 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }
         Err(e) => return Err(e.into()),
     };
-    sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;
-    let level =
-        sightline_formats::slvl::write(&compiled.level, &sightline_formats::slvl::WriteOptions::default());
     // The portal file (or the pointfile of a leak) first and the level last, all or none: the
-    // level records which portal file belongs to it.
+    // level records which portal file belongs to it (none for a leak).
     let wrote_prt = compiled.leak.is_none();
     let beside = match &compiled.leak {
         None => (prt_path.as_path(), sightline_formats::prt::write(&compiled.prt).into_bytes()),
         Some(leak) => (pts_path.as_path(), leak.pointfile().into_bytes()),
     };
+    compiled.level.portal_file = wrote_prt.then(|| sightline_formats::prt::fingerprint(&beside.1));
+    sightline_formats::slvl::validate(&compiled.level).context("the compiled level is inconsistent")?;
+    let level =
+        sightline_formats::slvl::write(&compiled.level, &sightline_formats::slvl::WriteOptions::default());
     output::write_together(&[(beside.0, &beside.1), (&out, &level)], t0)?;
     if wrote_prt {
         output::remove_stale(&pts_path, "pointfile of an earlier leak");
