@@ -41,10 +41,10 @@ pub fn fits_memory(what: &str, need: u64, threads: usize) -> anyhow::Result<()> 
     if let Some((limit, source)) = memory::limit(None, threads)
         && need > limit
     {
+        // These commands take no --max-memory: the machine's memory is just "available".
         let under = match source {
-            LimitSource::Cgroup => "left under the memory cgroup's limit",
-            LimitSource::Rlimit => "left under the process's address-space limit (ulimit -v / -d)",
-            LimitSource::Available | LimitSource::Explicit => "available",
+            LimitSource::Available | LimitSource::Explicit => "available".to_string(),
+            LimitSource::Cgroup | LimitSource::Rlimit => source.to_string(),
         };
         bail!(
             "{what} would need {} of memory, more than the {} {under}; ask for less",
