@@ -43,7 +43,7 @@ pub fn sightline_binary() -> PathBuf {
     let bin = dir.join(format!("sightline{}", std::env::consts::EXE_SUFFIX));
     assert!(
         bin.is_file(),
-        "{} is missing: run `cargo test --workspace` (or build -p sightline)",
+        "{} is missing: run `cargo test --profile test-opt` (or build -p sightline)",
         bin.display()
     );
     bin

@@ -9,7 +9,8 @@
 //!   Bevy). A `.prt` beside the `.bsp` is not read: portals would serve the runtime's portal
 //!   backend, not the PVS the plugin culls with; run `sightline vis` on the file instead.
 //! - The meshes ([`crate::mesh::build`]) are labeled sub-assets: `group{i}` for the world's
-//!   cluster groups and `model{N}` for brush model `N`.
+//!   cluster groups and `model{N}` for brush model `N` (`model{N}.sky`, `model{N}.liquid` for its
+//!   sky and liquid faces).
 //! - Errors name the asset path and what was wrong (from [`sightline_runtime::LoadError`], which
 //!   gives the lump or offset).
 
@@ -21,14 +22,25 @@ use bevy::mesh::Mesh;
 use bevy::reflect::TypePath;
 use sightline_runtime::{LoadError, World, load};
 
-use crate::mesh::{self, LevelMeshes};
+use crate::mesh::{self, LevelMeshes, Surface};
 
 /// A loaded level: the runtime's [`World`] (shared, immutable) and its meshes.
 #[derive(Asset, TypePath, Debug)]
 pub struct LevelAsset {
     world: Arc<World>,
     groups: Vec<GroupMesh>,
-    models: Vec<(u32, Handle<Mesh>)>,
+    models: Vec<ModelPart>,
+}
+
+/// A brush model's mesh of one surface ([`crate::mesh::ModelMesh`]).
+#[derive(Debug, Clone)]
+pub struct ModelPart {
+    /// Model number (`*N` in the entity text; `1..`).
+    pub model: u32,
+    /// What its faces are.
+    pub surface: Surface,
+    /// The mesh.
+    pub mesh: Handle<Mesh>,
 }
 
 /// A world mesh and the clusters it is seen from ([`crate::mesh::MeshGroup`]).
@@ -36,6 +48,8 @@ pub struct LevelAsset {
 pub struct GroupMesh {
     /// Clusters, ascending; empty when never culled.
     pub clusters: Vec<u32>,
+    /// What its faces are.
+    pub surface: Surface,
     /// The mesh.
     pub mesh: Handle<Mesh>,
 }
@@ -52,10 +66,28 @@ impl LevelAsset {
             .groups
             .into_iter()
             .enumerate()
-            .map(|(i, g)| GroupMesh { clusters: g.clusters, mesh: add(format!("group{i}"), g.mesh) })
+            .map(|(i, g)| GroupMesh {
+                clusters: g.clusters,
+                surface: g.surface,
+                mesh: add(format!("group{i}"), g.mesh),
+            })
             .collect();
-        let models =
-            built.models.into_iter().map(|m| (m.model, add(format!("model{}", m.model), m.mesh))).collect();
+        let models = built
+            .models
+            .into_iter()
+            .map(|m| {
+                let suffix = match m.surface {
+                    Surface::Solid => "",
+                    Surface::Sky => ".sky",
+                    Surface::Liquid => ".liquid",
+                };
+                ModelPart {
+                    model: m.model,
+                    surface: m.surface,
+                    mesh: add(format!("model{}{suffix}", m.model), m.mesh),
+                }
+            })
+            .collect();
         Self { world: Arc::new(world), groups, models }
     }
 
@@ -69,8 +101,8 @@ impl LevelAsset {
         &self.groups
     }
 
-    /// The brush models' meshes, as (model number, mesh), ascending.
-    pub fn models(&self) -> &[(u32, Handle<Mesh>)] {
+    /// The brush models' meshes, by model number, then surface.
+    pub fn models(&self) -> &[ModelPart] {
         &self.models
     }
 }

@@ -40,12 +40,15 @@ use crate::coords::bevy_from_quake;
 
 /// Opts a camera in to PVS culling. `freeze: true` keeps culling with the eye and frustum of the
 /// frame it was set on, so one can fly out and look at what was drawn; setting it back to `false`
-/// resumes.
+/// resumes. `off: true` hides nothing but still counts (its [`ViewStats::drawn`] is then every
+/// level mesh Bevy's frustum kept), to show what the culling saves.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[require(PvsCameraState)]
 pub struct PvsCamera {
     /// Keep the view of the frame this was set on.
     pub freeze: bool,
+    /// Hide nothing (count only).
+    pub off: bool,
 }
 
 /// A [`PvsCamera`]'s working memory and its last frame's counts.
@@ -74,8 +77,11 @@ impl PvsCameraState {
 /// One camera's last frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ViewStats {
-    /// False when nothing was hidden on purpose (no level, eye in solid or outside, no visdata).
+    /// False when nothing was hidden on purpose (no level, eye in solid or outside, no visdata,
+    /// [`PvsCamera::off`]).
     pub culled: bool,
+    /// The eye's cluster (`None`: no level, eye in solid or outside, no visdata).
+    pub cluster: Option<u32>,
     /// The plugin's entities (cluster meshes and [`PvsCulled`]) left in the view's lists.
     pub drawn: u32,
     /// The plugin's entities removed from them.
@@ -203,9 +209,9 @@ pub(crate) fn cull_views(
             }
         };
         let eye_cluster = world.leaf_cluster(world.leaf_at(view.eye)).filter(|_| world.has_vis());
-        let mut view_stats = ViewStats::default();
-        if eye_cluster.is_none() {
-            // Eye in solid or outside the world, or no visdata: everything stays.
+        let mut view_stats = ViewStats { cluster: eye_cluster, ..ViewStats::default() };
+        if eye_cluster.is_none() || settings.off {
+            // Eye in solid or outside the world, no visdata, or culling off: everything stays.
             for list in visible_entities.entities.values() {
                 view_stats.drawn +=
                     list.iter().filter(|&&e| group_clusters(e).is_some() || touched.contains(e)).count()

@@ -39,9 +39,10 @@ use bevy::camera::visibility::VisibilitySystems;
 use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
 use bevy::transform::TransformSystems;
 
-pub use asset::{GroupMesh, LevelAsset, LevelLoadError, LevelLoader};
+pub use asset::{GroupMesh, LevelAsset, LevelLoadError, LevelLoader, ModelPart};
 pub use components::{BrushModelMesh, ClusterMesh, LevelRoot, LevelSpawned, PvsCulled, TouchedLeaves};
 pub use cull::{CullStats, PvsCamera, PvsCameraState, ViewStats};
+pub use mesh::Surface;
 
 /// The plugin's systems, all in `PostUpdate`, in this order.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]

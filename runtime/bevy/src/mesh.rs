@@ -8,6 +8,9 @@
 //!   ([`MeshGroup::clusters`], ascending): the group is potentially visible when any of them is.
 //!   World faces no cluster lists (in no open leaf) form a last group with no clusters, which is
 //!   never culled.
+//! - **Surfaces**: each group and model is split by [`Surface`] (solid, sky, liquid), so that a
+//!   material can draw sky and liquids as Quake does (unlit, liquids from both sides) apart from
+//!   the lit walls; a group is one (owning cluster, surface) pair.
 //! - Faces with a tool texture (`clip`, `trigger`, `skip`, `hint`, `origin`:
 //!   [`TextureKind::draws`]), fewer than three corners or a non-finite corner are not meshed.
 //! - Vertices are in Bevy's axes ([`crate::coords`]), in level units, corners reversed so that
@@ -17,6 +20,7 @@
 //!   flat colour per texture name ([`texture_color`]). Indices are `u32`.
 
 use bevy::asset::RenderAssetUsages;
+use bevy::ecs::component::Component;
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
 use sightline_formats::texture::TextureKind;
@@ -27,21 +31,57 @@ use crate::coords::to_bevy;
 /// Texels per texture repeat when the level does not size its textures.
 const DEFAULT_TEXTURE_SIZE: f32 = 64.0;
 
-/// One mesh of world faces and the clusters it is seen from.
+/// What a mesh's faces are, from their texture names ([`TextureKind`]); set on every spawned
+/// level mesh, for materials to tell them apart.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub enum Surface {
+    /// Walls, floors, everything lit.
+    #[default]
+    Solid,
+    /// `sky…`: drawn by Quake without lighting.
+    Sky,
+    /// `*…` (water, slime, lava): drawn by Quake without lighting, and seen from both sides.
+    Liquid,
+}
+
+impl Surface {
+    /// The surface of a texture name.
+    pub fn of(name: &str) -> Self {
+        match TextureKind::of(name) {
+            TextureKind::Sky => Surface::Sky,
+            TextureKind::Water | TextureKind::Slime | TextureKind::Lava => Surface::Liquid,
+            _ => Surface::Solid,
+        }
+    }
+
+    /// Every surface, in mesh order.
+    pub const ALL: [Surface; 3] = [Surface::Solid, Surface::Sky, Surface::Liquid];
+
+    /// Index in [`Surface::ALL`].
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// One mesh of world faces of one surface, and the clusters it is seen from.
 #[derive(Debug, Clone)]
 pub struct MeshGroup {
-    /// Clusters whose leaves list one of its faces, ascending; empty for the group that is never
-    /// culled.
+    /// Clusters whose leaves list one of its faces, ascending; empty for the groups that are
+    /// never culled.
     pub clusters: Vec<u32>,
+    /// What its faces are.
+    pub surface: Surface,
     /// The faces.
     pub mesh: Mesh,
 }
 
-/// One brush model's mesh (a door, a lift), as compiled (not moved by its entity).
+/// One brush model's mesh of one surface (a door, a lift), as compiled (not moved by its entity).
 #[derive(Debug, Clone)]
 pub struct ModelMesh {
     /// Its model number (`*N` in the entity text; `1..`).
     pub model: u32,
+    /// What its faces are.
+    pub surface: Surface,
     /// The faces.
     pub mesh: Mesh,
 }
@@ -140,8 +180,31 @@ fn texel(face: &FaceView<'_>, p: [f32; 3]) -> [f32; 2] {
     }
 }
 
+/// A mesh's buffers, one per [`Surface`].
+#[derive(Default)]
+struct BySurface([Buffers; 3]);
+
+impl BySurface {
+    /// Append face `face` to its surface's buffers (see [`Buffers::push_face`]).
+    fn push_face(&mut self, draw: &DrawData, face: &FaceView<'_>) {
+        let surface = Surface::of(draw.texture_name(face.texture).unwrap_or(""));
+        if let Some(b) = self.0.get_mut(surface.index()) {
+            b.push_face(draw, face);
+        }
+    }
+
+    /// The meshes of the surfaces that have faces, in [`Surface::ALL`] order.
+    fn into_meshes(self) -> impl Iterator<Item = (Surface, Mesh)> {
+        Surface::ALL
+            .into_iter()
+            .zip(self.0)
+            .filter(|(_, b)| !b.positions.is_empty())
+            .map(|(s, b)| (s, b.into_mesh()))
+    }
+}
+
 /// The meshes of `world`; see the module docs. Deterministic: groups ascend by owning cluster
-/// (the never-culled group last), models by number.
+/// (the never-culled groups last), then by surface; models by number, then by surface.
 pub fn build(world: &World) -> LevelMeshes {
     let draw = world.draw();
     let num_faces = draw.num_faces();
@@ -162,55 +225,50 @@ pub fn build(world: &World) -> LevelMeshes {
     }
     seen_from.sort_unstable();
     seen_from.dedup();
-    let mut buffers: Vec<Buffers> = Vec::new();
-    let mut group_of_cluster = vec![u32::MAX; world.num_clusters() as usize];
-    let mut groups: Vec<MeshGroup> = Vec::new();
+    // One slot per owning cluster: the clusters it is seen from, and its faces by surface.
+    let mut slots: Vec<(Vec<u32>, BySurface)> = Vec::new();
+    let mut slot_of_cluster = vec![u32::MAX; world.num_clusters() as usize];
     for &(o, c) in &seen_from {
-        let Some(slot) = group_of_cluster.get_mut(o as usize) else { continue };
+        let Some(slot) = slot_of_cluster.get_mut(o as usize) else { continue };
         if *slot == u32::MAX {
-            *slot = groups.len() as u32;
-            groups.push(MeshGroup {
-                clusters: Vec::new(),
-                mesh: Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default()),
-            });
-            buffers.push(Buffers::default());
+            *slot = slots.len() as u32;
+            slots.push((Vec::new(), BySurface::default()));
         }
-        if let Some(g) = groups.get_mut(*slot as usize) {
-            g.clusters.push(c);
+        if let Some((clusters, _)) = slots.get_mut(*slot as usize) {
+            clusters.push(c);
         }
     }
-    let mut unlisted = Buffers::default();
+    let mut unlisted = BySurface::default();
     for f in world_faces.clone() {
         let Some(face) = draw.face(f) else { continue };
-        let group = owner.get(f as usize).and_then(|&o| group_of_cluster.get(o as usize)).copied();
-        match group.and_then(|g| buffers.get_mut(g as usize)) {
-            Some(b) => b.push_face(draw, &face),
+        let slot = owner.get(f as usize).and_then(|&o| slot_of_cluster.get(o as usize)).copied();
+        match slot.and_then(|s| slots.get_mut(s as usize)) {
+            Some((_, b)) => b.push_face(draw, &face),
             None => unlisted.push_face(draw, &face),
         }
     }
-    for (g, b) in groups.iter_mut().zip(buffers) {
-        g.mesh = b.into_mesh();
+    // A cluster whose faces are all tool textures meshes nothing: no group for it.
+    let mut groups: Vec<MeshGroup> = Vec::new();
+    for (clusters, b) in slots {
+        for (surface, mesh) in b.into_meshes() {
+            groups.push(MeshGroup { clusters: clusters.clone(), surface, mesh });
+        }
     }
-    // A cluster whose faces are all tool textures meshes nothing: no entity for it.
-    groups.retain(|g| g.mesh.count_vertices() > 0);
-    if !unlisted.positions.is_empty() {
-        groups.push(MeshGroup { clusters: Vec::new(), mesh: unlisted.into_mesh() });
+    for (surface, mesh) in unlisted.into_meshes() {
+        groups.push(MeshGroup { clusters: Vec::new(), surface, mesh });
     }
-    let models = draw
-        .models()
-        .iter()
-        .enumerate()
-        .skip(1)
-        .filter_map(|(m, model)| {
-            let mut b = Buffers::default();
-            for f in model.faces.clone() {
-                if let Some(face) = draw.face(f) {
-                    b.push_face(draw, &face);
-                }
+    let mut models = Vec::new();
+    for (m, model) in draw.models().iter().enumerate().skip(1) {
+        let mut b = BySurface::default();
+        for f in model.faces.clone() {
+            if let Some(face) = draw.face(f) {
+                b.push_face(draw, &face);
             }
-            (!b.positions.is_empty()).then(|| ModelMesh { model: m as u32, mesh: b.into_mesh() })
-        })
-        .collect();
+        }
+        for (surface, mesh) in b.into_meshes() {
+            models.push(ModelMesh { model: m as u32, surface, mesh });
+        }
+    }
     LevelMeshes { groups, models }
 }
 
@@ -240,6 +298,7 @@ mod tests {
         let built = build(&world);
         let clusters: Vec<Vec<u32>> = built.groups.iter().map(|g| g.clusters.clone()).collect();
         assert_eq!(clusters, vec![vec![0, 1], vec![1], vec![2]]);
+        assert!(built.groups.iter().all(|g| g.surface == Surface::Solid));
         // Every face once: four corners and two triangles each.
         let corners: usize = built.groups.iter().map(|g| g.mesh.count_vertices()).sum();
         assert_eq!(corners, 4 * world.draw().num_faces());
@@ -282,6 +341,29 @@ mod tests {
             }
         }
         assert!(triangles > 1000, "{triangles} triangles checked");
+    }
+
+    /// On a level with texture names (id's E1M1: sky, water, slime), every drawn world face of
+    /// each surface is meshed in groups of that surface, corner for corner.
+    #[test]
+    fn sky_and_liquid_faces_are_meshed_in_groups_of_their_surface() {
+        let Some(path) = sightline_tests::shared_map("id_bsp_orig/e1m1.bsp") else { return };
+        let world = sightline_runtime::load::load_path(&path).expect("id's E1M1 loads");
+        let draw = world.draw();
+        let mut want = [0usize; 3];
+        for f in draw.models()[0].faces.clone() {
+            let face = draw.face(f).expect("face");
+            let name = draw.texture_name(face.texture).unwrap_or("");
+            if face.vertices.len() >= 3 && TextureKind::of(name).draws() {
+                want[Surface::of(name).index()] += face.vertices.len();
+            }
+        }
+        let mut got = [0usize; 3];
+        for g in &build(&world).groups {
+            got[g.surface.index()] += g.mesh.count_vertices();
+        }
+        assert_eq!(got, want);
+        assert!(want[Surface::Sky.index()] > 0 && want[Surface::Liquid.index()] > 0, "{want:?}");
     }
 
     #[test]

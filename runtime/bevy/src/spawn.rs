@@ -1,5 +1,6 @@
 //! Spawning a loaded level: a [`LevelRoot`] entity gets, once its [`LevelAsset`] is loaded, one
-//! child per world mesh group ([`ClusterMesh`]) and one per brush model ([`BrushModelMesh`]).
+//! child per world mesh group ([`ClusterMesh`]) and one per brush model and surface
+//! ([`BrushModelMesh`]), each with its [`crate::mesh::Surface`].
 //!
 //! Children sit at the identity relative to the root, so the root's `Transform` places (and may
 //! scale) the whole level; a brush model's own `Transform` is the offset its entity moves it by
@@ -22,10 +23,18 @@ pub(crate) fn spawn_levels(
         let Some(level) = levels.get(&handle.0) else { continue };
         commands.entity(root).insert(LevelSpawned).with_children(|children| {
             for (i, group) in level.groups().iter().enumerate() {
-                children.spawn((Mesh3d(group.mesh.clone()), ClusterMesh { level: root, group: i as u32 }));
+                children.spawn((
+                    Mesh3d(group.mesh.clone()),
+                    ClusterMesh { level: root, group: i as u32 },
+                    group.surface,
+                ));
             }
-            for (model, mesh) in level.models() {
-                children.spawn((Mesh3d(mesh.clone()), BrushModelMesh { level: root, model: *model }));
+            for part in level.models() {
+                children.spawn((
+                    Mesh3d(part.mesh.clone()),
+                    BrushModelMesh { level: root, model: part.model },
+                    part.surface,
+                ));
             }
         });
     }
