@@ -181,7 +181,7 @@ fn windings_count_as_convex_only_when_they_are() {
 
 /// An `nx` × `ny` grid of 64-unit cells (one leaf and cluster each) whose walls have openings of
 /// random size and place, some walls none: many batches, and flows that certify sight lines.
-fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
+pub(super) fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
     let mut rng = sightline_job::rng::SplitMix64::new(seed);
     // A rectangle facing `into` (the normal points into the file's first leaf).
     let rect = |pts: Vec<DVec3>, into: DVec3| {
