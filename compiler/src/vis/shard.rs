@@ -708,6 +708,39 @@ mod tests {
     }
 
     #[test]
+    fn a_damaged_shard_is_stale_and_refused_naming_its_file() {
+        let prt = super::super::tests::grid(5, 4, 9);
+        let dir = temp("damaged");
+        let files = ShardFiles { dir: dir.clone(), stem: "d".into(), plan: Plan::new(2, 1).expect("plan") };
+        run_all(&prt, &files, 1);
+        let path = files.path(1, 2);
+        let good = std::fs::read(&path).expect("read");
+        let opts = VisOptions { threads: 1, ..VisOptions::default() };
+        // Every flipped byte, a cut and an extension: stale in the status, refused by the merge.
+        let step = (good.len() / 40).max(1);
+        let mut bad: Vec<Vec<u8>> = (0..good.len())
+            .step_by(step)
+            .map(|i| {
+                let mut b = good.clone();
+                b[i] ^= 0x20;
+                b
+            })
+            .collect();
+        bad.push(good[..good.len() - 1].to_vec());
+        bad.push([good.as_slice(), &[0]].concat());
+        for b in bad {
+            std::fs::write(&path, &b).expect("write");
+            let st = status(&prt, &opts, &files).expect("status");
+            assert!(matches!(st[1].state, ShardState::Stale(_)), "{:?}", st[1]);
+            match merged(&prt, &files, true) {
+                Err(VisError::Shard(m)) => assert!(m.contains("d.2-of-2.shard"), "{m}"),
+                other => panic!("a damaged shard merged: {other:?}"),
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn a_shard_of_another_version_is_refused_naming_its_file() {
         let prt = super::super::tests::grid(6, 5, 3);
         let opts = VisOptions { threads: 1, ..VisOptions::default() };

@@ -25,7 +25,7 @@ pub const ABOUT: &str = "Vis one map across machines: `sightline vis plan|shard|
 
 /// Arguments of `sightline vis plan|shard|merge|status` (reached as `sightline vis STEP`).
 #[derive(Debug, clap::Args)]
-#[command(about = ABOUT)]
+#[command(about = ABOUT, bin_name = "sightline vis")]
 pub struct Args {
     /// The step.
     #[command(subcommand)]
