@@ -11,6 +11,7 @@ use anyhow::{Context, anyhow, bail};
 use clap::Subcommand;
 
 use sightline_compiler::dropin;
+use sightline_compiler::vis::VisError;
 use sightline_compiler::vis::plan::{MAX_SHARDS, Plan, PlanReport};
 use sightline_compiler::vis::shard::{self, MergeSpec, ShardFiles, ShardReport, ShardState, ShardStatus};
 
@@ -97,6 +98,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         Step::Plan(a) => plan(a),
         Step::Shard(a) => run_shard(a),
         Step::Merge(a) => {
+            if a.plan.vis.vis.fast {
+                bail!("{}: --fast has no flow to merge from shards", a.plan.vis.input.display());
+            }
             let files = files(&a.plan)?;
             super::run_with(&a.plan.vis, Some(MergeSpec { files, allow_partial: a.allow_partial }))
         }
@@ -184,8 +188,13 @@ fn run_shard(a: &ShardArgs) -> anyhow::Result<Outcome> {
     let (path, prt, opts) = portals(&a.vis)?;
     let files = ShardFiles::for_input(&path, a.dir.as_deref(), plan_of(n, &a.vis)?);
     let bars = crate::progress::Bars::batched(a.vis.json || a.vis.no_progress, 32);
-    let report = shard::run_shard(&prt, &opts.vis, &files, a.wave, k, &bars)
-        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let report = shard::run_shard(&prt, &opts.vis, &files, a.wave, k, &bars).map_err(|e| match e {
+        VisError::Interrupted { done, total } => anyhow!(
+            "{}: stopped after {done} of {total} portals of shard {k}/{n}; nothing written, run it again",
+            path.display()
+        ),
+        e => anyhow!("{}: {e}", path.display()),
+    })?;
     drop(bars);
     crate::out::report(a.vis.json, &report, || shard_text(&report, n))?;
     Ok(Outcome::Clean)
