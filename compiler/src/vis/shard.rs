@@ -708,6 +708,27 @@ mod tests {
     }
 
     #[test]
+    fn a_later_wave_needs_every_shard_of_the_waves_before_it() {
+        let prt = super::super::tests::grid(5, 4, 2);
+        let dir = temp("waves");
+        let files = ShardFiles { dir: dir.clone(), stem: "w".into(), plan: Plan::new(3, 2).expect("plan") };
+        let opts = VisOptions { threads: 1, ..VisOptions::default() };
+        for k in [1, 3] {
+            run_shard(&prt, &opts, &files, 1, k, &NoProgress).expect("wave 1");
+        }
+        match run_shard(&prt, &opts, &files, 2, 1, &NoProgress) {
+            Err(VisError::Shard(m)) => {
+                assert!(m.contains("w.wave1-of-2.2-of-3.shard") && !m.contains("1-of-3"), "{m}");
+            }
+            other => panic!("wave 2 ran without all of wave 1: {other:?}"),
+        }
+        assert!(!files.path(2, 1).exists(), "nothing written");
+        assert!(run_shard(&prt, &opts, &files, 3, 1, &NoProgress).is_err(), "no wave 3 in 2 waves");
+        assert!(run_shard(&prt, &opts, &files, 1, 4, &NoProgress).is_err(), "no shard 4 of 3");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn a_damaged_shard_is_stale_and_refused_naming_its_file() {
         let prt = super::super::tests::grid(5, 4, 9);
         let dir = temp("damaged");
