@@ -99,12 +99,8 @@ use schedule::flow_all;
 /// per finished portal (from worker threads), a note when clusters are merged to fit the limits
 /// and a warning, once done, that the merged PVS is looser; [`VisOptions::cancel`] stops the run at its next batch boundary.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
-    if opts.level > 4 {
-        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
-    }
-    check(prt)?;
     // The thread count and the memory limit, each found once.
-    let opts = &VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
+    let opts = &checked_input(prt, opts)?;
     let memory = crate::memory::limit(opts.max_memory, opts.threads);
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads. Shards flow the input as it is.
@@ -154,15 +150,20 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
 /// `opts` for a run of `prt` that flows the input as it is (the shards of a plan): the level
 /// and the input checked, the thread count chosen, the memory and work limits applied.
 fn checked(prt: &PortalFile, opts: &VisOptions) -> Result<VisOptions, VisError> {
-    if opts.level > 4 {
-        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
-    }
-    check(prt)?;
-    let opts = VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
+    let opts = checked_input(prt, opts)?;
     let memory = crate::memory::limit(opts.max_memory, opts.threads);
     check_memory(prt, &opts, memory)?;
     check_work(prt, &opts)?;
     Ok(opts)
+}
+
+/// `opts` with its thread count chosen for `prt`, once the level and the input are checked.
+fn checked_input(prt: &PortalFile, opts: &VisOptions) -> Result<VisOptions, VisError> {
+    if opts.level > 4 {
+        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
+    }
+    check(prt)?;
+    Ok(VisOptions { threads: thread_count(prt, opts), ..opts.clone() })
 }
 
 fn check(prt: &PortalFile) -> Result<(), VisError> {

@@ -18,12 +18,18 @@ use super::options::VisOptions;
 use super::stats::VisStats;
 use super::{flow, graph, parallel, plan, seeds, state, symmetry};
 
-/// Hash of the input and of what changes flow rows: the options and the run's `batch` size.
+/// Hash of the input and of what changes flow rows: the options and the run's `batch` size
+/// (with [`VisOptions::waves`], the wave count and the whole batch size too: waves of more than
+/// 255 portals would otherwise hash alike).
 pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u64 {
     let text = sightline_formats::prt::write(prt);
     let h = fnv1a(text.as_bytes(), FNV_OFFSET);
-    let batch = u8::try_from(batch).unwrap_or(u8::MAX);
-    fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
+    let short = u8::try_from(batch).unwrap_or(u8::MAX);
+    let h = fnv1a(&[opts.level, short, u8::from(opts.seeds)], h);
+    match opts.waves {
+        Some(w) => fnv1a(&[u64::from(w).to_le_bytes(), (batch as u64).to_le_bytes()].concat(), h),
+        None => h,
+    }
 }
 
 /// The order portals are flowed in: increasing `mightsee` (the `n` rows of `might`, `words`
