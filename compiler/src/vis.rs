@@ -222,7 +222,7 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
     } else {
         let t1 = Instant::now();
         let portal_vis = match &opts.merge {
-            Some(spec) => shard::merge_rows(prt, g.clone(), might, words, opts, spec, &mut stats)?,
+            Some(spec) => shard::merge_rows(prt, &g, might, words, opts, spec, &mut stats)?,
             None => flow_all(prt, &g, might, words, opts, progress, &mut stats)?,
         };
         stats.flow_seconds = t1.elapsed().as_secs_f64();

@@ -23,6 +23,7 @@
 //! base-vis rows (`mightsee`, tightened by symmetry with the rest): a superset of their flow
 //! rows, so the PVS stays conservative, only looser ([`MergeStats`]).
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
@@ -241,16 +242,16 @@ struct Rows {
 
 /// What shard commands share: the input checked, base vis, the plan laid out and the rows
 /// tightened, ready for wave 1.
-struct Prepared {
+struct Prepared<'g> {
     opts: VisOptions,
-    g: graph::Graph,
+    g: Cow<'g, graph::Graph>,
     words: usize,
     layout: Layout,
     identity: u64,
     rows: Rows,
 }
 
-impl Prepared {
+impl<'g> Prepared<'g> {
     fn new(prt: &PortalFile, opts: &VisOptions, plan: Plan, version: &str) -> Result<Self, VisError> {
         let opts = super::checked(prt, opts)?;
         if opts.fast {
@@ -260,13 +261,13 @@ impl Prepared {
         let n = g.portals.len();
         let words = bits::words(n);
         let might = base::mightsee(&g, words, opts.threads, &|| {}).rows;
-        Ok(Self::from_base(prt, opts, g, might, words, plan, version))
+        Ok(Self::from_base(prt, opts, Cow::Owned(g), might, words, plan, version))
     }
 
     fn from_base(
         prt: &PortalFile,
         opts: VisOptions,
-        g: graph::Graph,
+        g: Cow<'g, graph::Graph>,
         might: Vec<u64>,
         words: usize,
         plan: Plan,
@@ -464,7 +465,7 @@ type Flowed = (usize, Vec<u64>, u64, bool);
 /// Flows `units` from the rows of `p` on its threads: per unit its row, chains and cull flag,
 /// in the order of `units`. The seeds found stay pending in `p`'s seeds.
 fn flow_units(
-    p: &Prepared,
+    p: &Prepared<'_>,
     units: &[u32],
     progress: &dyn Progress,
 ) -> Result<Vec<(Vec<u64>, u64, bool)>, VisError> {
@@ -545,7 +546,7 @@ pub fn status(prt: &PortalFile, opts: &VisOptions, files: &ShardFiles) -> Result
 /// [`super::run`]); `stats` gets their chains and [`VisStats::merged`].
 pub(super) fn merge_rows(
     prt: &PortalFile,
-    g: graph::Graph,
+    g: &graph::Graph,
     might: Vec<u64>,
     words: usize,
     opts: &VisOptions,
@@ -553,7 +554,7 @@ pub(super) fn merge_rows(
     stats: &mut VisStats,
 ) -> Result<Vec<u64>, VisError> {
     let plan = spec.files.plan;
-    let mut p = Prepared::from_base(prt, opts.clone(), g, might, words, plan, VERSION);
+    let mut p = Prepared::from_base(prt, opts.clone(), Cow::Borrowed(g), might, words, plan, VERSION);
     let mut waves = Vec::with_capacity(plan.waves as usize);
     let mut absent = Vec::new();
     for w in 1..=plan.waves {
