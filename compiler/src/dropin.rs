@@ -182,6 +182,19 @@ pub fn run(
     }
 }
 
+/// The portal file a vis of the input at `path` reads, found as [`run`] finds it for the file's
+/// game (the `.prt` beside a `.bsp`, its tree with [`DropInOptions::portals_from_tree`], or the
+/// portal file itself): what the shards of a plan flow ([`crate::vis::shard`]), whose merge is
+/// then written by [`run`] with [`VisOptions::merge`].
+pub fn portals(path: &Path, opts: &DropInOptions) -> Result<sightline_formats::prt::PortalFile, DropInError> {
+    let bytes = read_input(path)?;
+    match Game::sniff(&bytes) {
+        Some(Game::Quake3) => Ok(portals_beside(path, quake3::PORTALS_HINT)?.1),
+        Some(Game::Quake2) => Ok(portals_beside(path, "")?.1),
+        _ => Ok(quake::vis_input(path, bytes, opts)?.0.prt),
+    }
+}
+
 /// Refuses, before any work, the files the run at `path` would write (an external `.vis`, the
 /// `NAME.vis` of a portal file, the checkpoint) when one would replace an input (the compiled map
 /// or portal file, the portal file and `NAME.texinfo.json` beside a `.bsp`) or another of them,

@@ -62,10 +62,12 @@ mod flow;
 mod graph;
 mod options;
 mod parallel;
+pub mod plan;
 mod poly;
 mod rows;
 mod schedule;
 mod seeds;
+pub mod shard;
 mod state;
 mod stats;
 mod symmetry;
@@ -97,18 +99,16 @@ use schedule::flow_all;
 /// per finished portal (from worker threads), a note when clusters are merged to fit the limits
 /// and a warning, once done, that the merged PVS is looser; [`VisOptions::cancel`] stops the run at its next batch boundary.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
-    if opts.level > 4 {
-        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
-    }
-    check(prt)?;
     // The thread count and the memory limit, each found once.
-    let opts = &VisOptions { threads: thread_count(prt, opts), ..opts.clone() };
+    let opts = &checked_input(prt, opts)?;
     let memory = crate::memory::limit(opts.max_memory, opts.threads);
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
-    // PVS); the run then has to fit with its own threads.
+    // PVS); the run then has to fit with its own threads. Shards flow the input as it is.
     let single = VisOptions { threads: 1, ..opts.clone() };
     let coarse = match check_memory(prt, &single, memory).and_then(|()| check_work(prt, opts)) {
-        Err(e @ (VisError::Memory { .. } | VisError::Work { .. })) if opts.coarsen => {
+        Err(e @ (VisError::Memory { .. } | VisError::Work { .. }))
+            if opts.coarsen && opts.merge.is_none() =>
+        {
             let limits = coarsen::Limits {
                 memory: memory.map_or(u64::MAX, |(limit, _)| limit),
                 work: work_limit(opts).map_or(u64::MAX, |(limit, _)| limit),
@@ -145,6 +145,25 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     result.stats.threads = opts.threads;
     result.stats.work_estimate = work_estimate(prt, opts);
     Ok(result)
+}
+
+/// `opts` for a run of `prt` that flows the input as it is (the shards of a plan): the level
+/// and the input checked, the thread count chosen, the memory and work limits applied.
+fn checked(prt: &PortalFile, opts: &VisOptions) -> Result<VisOptions, VisError> {
+    let opts = checked_input(prt, opts)?;
+    let memory = crate::memory::limit(opts.max_memory, opts.threads);
+    check_memory(prt, &opts, memory)?;
+    check_work(prt, &opts)?;
+    Ok(opts)
+}
+
+/// `opts` with its thread count chosen for `prt`, once the level and the input are checked.
+fn checked_input(prt: &PortalFile, opts: &VisOptions) -> Result<VisOptions, VisError> {
+    if opts.level > 4 {
+        return Err(VisError::Option(format!("level {} is out of range 0..=4", opts.level)));
+    }
+    check(prt)?;
+    Ok(VisOptions { threads: thread_count(prt, opts), ..opts.clone() })
 }
 
 fn check(prt: &PortalFile) -> Result<(), VisError> {
@@ -202,7 +221,10 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
         base_result
     } else {
         let t1 = Instant::now();
-        let portal_vis = flow_all(prt, &g, might, words, opts, progress, &mut stats)?;
+        let portal_vis = match &opts.merge {
+            Some(spec) => shard::merge_rows(prt, &g, might, words, opts, spec, &mut stats)?,
+            None => flow_all(prt, &g, might, words, opts, progress, &mut stats)?,
+        };
         stats.flow_seconds = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
         let result = cluster_rows(prt, &g, &portal_vis, words, row_threads);

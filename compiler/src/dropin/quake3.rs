@@ -16,6 +16,9 @@ use sightline_job::progress::Progress;
 
 use super::{DropInError, DropInOptions, Q3Report};
 
+/// How to get a portal file beside a Quake 3 map (the end of the error when there is none).
+pub(crate) const PORTALS_HINT: &str = "; run q3map2 -bsp, or -vis with -saveprt";
+
 /// Runs the drop-in vis on the Quake 3 `.bsp` at `path`, whose bytes are `bytes`.
 pub fn run(
     path: &Path,
@@ -37,7 +40,7 @@ pub fn run(
     let name = path.display();
     let map = CompiledMap::read(bytes).map_err(DropInError::bsp(path))?;
     map.check_vis_layout().map_err(DropInError::bsp(path))?;
-    let (prt_path, portals) = super::portals_beside(path, "; run q3map2 -bsp, or -vis with -saveprt")?;
+    let (prt_path, portals) = super::portals_beside(path, PORTALS_HINT)?;
     let prt_path = &prt_path;
     let prt_name = prt_path.display().to_string();
     let clusters = map.clusters();

@@ -15,6 +15,10 @@ pub enum VisError {
     /// A checkpoint could not be read or written, or belongs to another input.
     #[error("vis state: {0}")]
     State(String),
+    /// A shard file of a plan ([`shard`](super::shard)) could not be read or written, belongs
+    /// to another input, plan or version, or is missing from a merge.
+    #[error("vis shard: {0}")]
+    Shard(String),
     /// Stopped on request after `done` flow portals; the state file holds them.
     #[error("stopped after {done} of {total} portals (state saved)")]
     Interrupted {

@@ -43,6 +43,12 @@ pub struct VisOptions {
     /// Over either limit, merge clusters until both estimates fit ([`coarsen`](super::coarsen)) instead of
     /// refusing.
     pub coarsen: bool,
+    /// Flow in this many waves of equal size instead of the default batches: a portal reads the
+    /// rows of earlier waves only, as the shards of a plan of that many waves do
+    /// ([`shard`](super::shard)), so this one-process run gives their merge, byte for byte.
+    pub waves: Option<u32>,
+    /// Take the flow rows from the shard files of a plan instead of flowing ([`shard`](super::shard)).
+    pub merge: Option<super::shard::MergeSpec>,
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
     pub(crate) panic_at: Option<usize>,
@@ -62,6 +68,8 @@ impl Default for VisOptions {
             max_memory: None,
             max_work: None,
             coarsen: false,
+            waves: None,
+            merge: None,
             #[cfg(test)]
             panic_at: None,
         }

@@ -16,14 +16,28 @@ use super::budget::flow_batch;
 use super::error::{VisError, panic_error};
 use super::options::VisOptions;
 use super::stats::VisStats;
-use super::{flow, graph, parallel, seeds, state, symmetry};
+use super::{flow, graph, parallel, plan, seeds, state, symmetry};
 
-/// Hash of the input and of what changes flow rows: the options and the run's `batch` size.
+/// Hash of the input and of what changes flow rows: the options and the run's `batch` size
+/// (with [`VisOptions::waves`], the wave count and the whole batch size too: waves of more than
+/// 255 portals would otherwise hash alike).
 pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u64 {
     let text = sightline_formats::prt::write(prt);
     let h = fnv1a(text.as_bytes(), FNV_OFFSET);
-    let batch = u8::try_from(batch).unwrap_or(u8::MAX);
-    fnv1a(&[opts.level, batch, u8::from(opts.seeds)], h)
+    let short = u8::try_from(batch).unwrap_or(u8::MAX);
+    let h = fnv1a(&[opts.level, short, u8::from(opts.seeds)], h);
+    match opts.waves {
+        Some(w) => fnv1a(&[u64::from(w).to_le_bytes(), (batch as u64).to_le_bytes()].concat(), h),
+        None => h,
+    }
+}
+
+/// The order portals are flowed in: increasing `mightsee` (the `n` rows of `might`, `words`
+/// words each), then portal number.
+pub(super) fn processing_order(might: &[u64], words: usize, n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
+    order
 }
 
 /// Flow every portal in deterministic batches; returns the final portal rows.
@@ -37,14 +51,14 @@ pub(super) fn flow_all(
     stats: &mut VisStats,
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
+    let order = processing_order(&might, words, n);
     // The flow narrows the `mightsee` rows in place.
     let mut test = might;
     symmetry::tighten_all(&mut test, words, n);
     let nc = g.num_clusters();
     let mut seeds = seeds::Seeds::new(nc);
-    let batch = flow_batch(prt, opts);
+    // A shard plan's waves are batches too ([`plan::wave_size`]).
+    let batch = opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(n, w));
     let mut done = 0usize;
     let mut quiet = 0usize;
     // With a state file, the log of every batch boundary: loaded and replayed when the file

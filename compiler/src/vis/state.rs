@@ -27,6 +27,7 @@
 
 use std::path::Path;
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use sightline_formats::bits;
 use sightline_formats::hash::{FNV_OFFSET, fnv1a};
@@ -191,12 +192,19 @@ fn config() -> bincode::config::Configuration<bincode::config::LittleEndian, bin
     bincode::config::standard().with_fixed_int_encoding()
 }
 
-/// The file's bytes: the encoded state and its checksum.
-fn encode(state: &State) -> Result<Vec<u8>, String> {
-    let mut bytes = bincode::serde::encode_to_vec(state, config()).map_err(|e| e.to_string())?;
+/// The bytes of a sealed file: `value` encoded (bincode 2, fixed-width little-endian integers)
+/// and its checksum trailer (FNV-1a 64 of the bytes before it). The shape of `--state` files and
+/// of shard files ([`super::shard`]), whose values start with their format's magic.
+pub(super) fn seal<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
+    let mut bytes = bincode::serde::encode_to_vec(value, config()).map_err(|e| e.to_string())?;
     let sum = fnv1a(&bytes, FNV_OFFSET);
     bytes.extend_from_slice(&sum.to_le_bytes());
     Ok(bytes)
+}
+
+/// The file's bytes: the encoded state and its checksum.
+fn encode(state: &State) -> Result<Vec<u8>, String> {
+    seal(state)
 }
 
 /// Write `state` atomically ([`write_file_atomic`]).
@@ -206,44 +214,53 @@ pub fn save(path: &Path, state: &State) -> Result<(), VisError> {
     write_file_atomic(path, &bytes).map_err(|e| VisError::State(format!("{}: {e}", path.display())))
 }
 
-fn decode_with<const N: usize>(bytes: &[u8]) -> Result<(State, usize), bincode::error::DecodeError> {
+fn decode_with<T: DeserializeOwned, const N: usize>(
+    bytes: &[u8],
+) -> Result<(T, usize), bincode::error::DecodeError> {
     bincode::serde::decode_from_slice(bytes, config().with_limit::<N>())
 }
 
 /// Decode with the smallest power-of-two limit that holds the file (bincode's limit is a const).
-fn decode_payload(bytes: &[u8]) -> Result<(State, usize), String> {
-    // Fixed-width encoding: the bytes a state claims in memory equal its encoded length.
+fn decode_payload<T: DeserializeOwned>(bytes: &[u8], what: &str) -> Result<(T, usize), String> {
+    // Fixed-width encoding: the bytes a value claims in memory equal its encoded length.
     let need = bytes.len() as u64 + 1024;
     macro_rules! tiers {
         ($($k:literal)*) => {
-            $(if need <= 1u64 << $k { return decode_with::<{ 1usize << $k }>(bytes).map_err(|e| e.to_string()); })*
+            $(if need <= 1u64 << $k { return decode_with::<T, { 1usize << $k }>(bytes).map_err(|e| e.to_string()); })*
         };
     }
     tiers!(12 14 16 18 20 22 24 26 28 30 32 34 36);
-    Err(format!("file of {} bytes is too large for a vis state", bytes.len()))
+    Err(format!("file of {} bytes is too large for a {what}", bytes.len()))
 }
 
-/// The state in `bytes`, its checksum verified and every byte used.
-fn decode(bytes: &[u8]) -> Result<State, String> {
+/// The value sealed in `bytes` ([`seal`]): its first 8 bytes the `magic` of `what` (a vis state,
+/// a vis shard), its checksum verified, every byte used, and decoding bounded by a limit sized
+/// from the file's length.
+pub(super) fn unseal<T: DeserializeOwned>(bytes: &[u8], magic: u64, what: &str) -> Result<T, String> {
     let Some(split) = bytes.len().checked_sub(TRAILER) else {
-        return Err(format!("file of {} bytes is too short for a vis state", bytes.len()));
+        return Err(format!("file of {} bytes is too short for a {what}", bytes.len()));
     };
     let (payload, trailer) = bytes.split_at(split);
     let mut sum = [0u8; TRAILER];
     sum.copy_from_slice(trailer);
-    if payload.len() < 8 || payload[..8] != MAGIC.to_le_bytes() {
-        return Err("bytes 0..8 are not the magic of a vis state of this version".to_string());
+    if payload.len() < 8 || payload[..8] != magic.to_le_bytes() {
+        return Err(format!("bytes 0..8 are not the magic of a {what} of this version"));
     }
     if u64::from_le_bytes(sum) != fnv1a(payload, FNV_OFFSET) {
         return Err(format!(
             "the checksum at offset {split} does not match bytes 0..{split}: the file is damaged"
         ));
     }
-    let (state, used) = decode_payload(payload)?;
+    let (value, used) = decode_payload(payload, what)?;
     if used != payload.len() {
-        return Err(format!("{} bytes of garbage after the state", payload.len() - used));
+        return Err(format!("{} bytes of garbage after the {what}", payload.len() - used));
     }
-    Ok(state)
+    Ok(value)
+}
+
+/// The state in `bytes`, its checksum verified and every byte used.
+fn decode(bytes: &[u8]) -> Result<State, String> {
+    unseal(bytes, MAGIC, "vis state")
 }
 
 /// What a run needs a state to match.

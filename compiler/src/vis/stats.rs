@@ -46,6 +46,9 @@ pub struct VisStats {
     /// When clusters were merged to fit memory ([`VisOptions::coarsen`](super::VisOptions::coarsen)): the rows are still
     /// over the input's clusters, but looser than they allow.
     pub coarsened: Option<CoarsenStats>,
+    /// When the flow rows came from shard files ([`VisOptions::merge`](super::VisOptions::merge)):
+    /// the plan, and what was missing.
+    pub merged: Option<super::shard::MergeStats>,
 }
 
 /// The PVS: one row per cluster (bits over clusters), expandable to leaves.

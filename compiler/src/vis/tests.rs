@@ -181,7 +181,7 @@ fn windings_count_as_convex_only_when_they_are() {
 
 /// An `nx` × `ny` grid of 64-unit cells (one leaf and cluster each) whose walls have openings of
 /// random size and place, some walls none: many batches, and flows that certify sight lines.
-fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
+pub(super) fn grid(nx: u32, ny: u32, seed: u64) -> PortalFile {
     let mut rng = sightline_job::rng::SplitMix64::new(seed);
     // A rectangle facing `into` (the normal points into the file's first leaf).
     let rect = |pts: Vec<DVec3>, into: DVec3| {
@@ -631,4 +631,37 @@ fn the_base_average_counted_directly_is_that_of_the_symmetric_result() {
     let prt = grid(2, 1, 1);
     let one_way = [0b01u64, 0b11];
     assert_eq!(symmetric_average(&prt, &one_way, 1), 1.0);
+}
+
+#[test]
+fn a_state_of_other_waves_is_refused_even_at_a_common_boundary() {
+    // One-way portals a multiple of 4, so 2 of 4 waves end where the first of 2 waves does, and
+    // waves of more than 255 portals (the batch size the hash once kept in a byte).
+    let prt = (1..)
+        .map(|seed| grid(30, 30, seed))
+        .find(|p| graph::Graph::new(p).portals.len().is_multiple_of(4))
+        .expect("a grid");
+    let n = graph::Graph::new(&prt).portals.len();
+    assert!(n / 4 > 255, "{n} portals");
+    let dir = temp_dir("waves-state");
+    let path = dir.join("w.state");
+    let opts = |waves| VisOptions {
+        threads: 2,
+        waves: Some(waves),
+        state: Some(path.clone()),
+        ..VisOptions::default()
+    };
+    match run(&prt, &VisOptions { stop_after: Some(n / 2), ..opts(4) }, &none()) {
+        Err(VisError::Interrupted { done, .. }) => assert_eq!(done, n / 2),
+        other => panic!("not interrupted after 2 of 4 waves: {other:?}"),
+    }
+    match run(&prt, &opts(2), &none()) {
+        Err(VisError::State(m)) => assert!(m.contains("w.state"), "{m}"),
+        other => panic!("a state of 4 waves resumed with 2: {other:?}"),
+    }
+    let whole = run(&prt, &VisOptions { threads: 2, waves: Some(4), ..VisOptions::default() }, &none())
+        .expect("whole");
+    let resumed = run(&prt, &opts(4), &none()).expect("resumed");
+    assert_eq!(resumed.rows, whole.rows, "resumed with its own waves");
+    let _ = std::fs::remove_dir_all(&dir);
 }

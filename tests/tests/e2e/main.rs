@@ -33,3 +33,4 @@ mod vis_q2;
 mod vis_q3;
 mod vis_real;
 mod vis_shapes;
+mod vis_shards;

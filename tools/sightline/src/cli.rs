@@ -39,6 +39,9 @@ pub enum Command {
     Bench(cmd::bench::Args),
     #[command(about = cmd::gvs::ABOUT)]
     Gvs(cmd::gvs::Args),
+    /// `sightline vis plan|shard|merge|status`, reached through `vis` ([`translate_vis_args`]).
+    #[command(name = "vis-shards", hide = true)]
+    VisShards(cmd::vis::shards::Args),
 }
 
 /// Parse the command line, run it, print any error, and return the process exit code.
@@ -57,7 +60,14 @@ pub fn main() -> i32 {
     let cli = Cli::parse_from(join_negative_values(args));
     // Commands that stop on request take Ctrl-C and SIGTERM from the start (the reading of a large
     // input included), not only once their long work begins.
-    if matches!(cli.command, Command::Compile(_) | Command::Vis(_) | Command::Validate(_) | Command::Gvs(_)) {
+    if matches!(
+        cli.command,
+        Command::Compile(_)
+            | Command::Vis(_)
+            | Command::VisShards(_)
+            | Command::Validate(_)
+            | Command::Gvs(_)
+    ) {
         crate::interrupt::ctrl_c_flag();
     }
     let result = match &cli.command {
@@ -69,6 +79,7 @@ pub fn main() -> i32 {
         Command::Render(a) => cmd::render::run(a),
         Command::Bench(a) => cmd::bench::run(a),
         Command::Gvs(a) => cmd::gvs::run(a),
+        Command::VisShards(a) => cmd::vis::shards::run(a),
     };
     // Printing never panics (see `crate::out`); a stdout that failed for another reason than a
     // closed pipe makes the exit code 2.
@@ -114,6 +125,9 @@ pub fn join_negative_values(args: Vec<OsString>) -> Vec<OsString> {
     out
 }
 
+/// The words after `vis` that name a step of a sharded vis (`cmd::vis::shards`), not an input.
+const SHARD_STEPS: [&str; 4] = ["plan", "shard", "merge", "status"];
+
 /// `args` (the program name first) with a `vis` subcommand's ericw-tools / id options turned into
 /// Sightline's flags ([`cmd::vis::ericw_args`]); other command lines are returned unchanged.
 pub fn translate_vis_args(args: Vec<OsString>) -> Result<Vec<OsString>, String> {
@@ -124,6 +138,12 @@ pub fn translate_vis_args(args: Vec<OsString>) -> Result<Vec<OsString>, String> 
     };
     let at = at + 1;
     if args[at].to_str() != Some("vis") {
+        return Ok(args);
+    }
+    // `vis plan|shard|merge|status`: the steps of a sharded vis, with Sightline's flags only.
+    if args.get(at + 1).and_then(|w| w.to_str()).is_some_and(|w| SHARD_STEPS.contains(&w)) {
+        let mut args = args;
+        args[at] = OsString::from("vis-shards");
         return Ok(args);
     }
     // Without a single-dash option there is nothing to turn (and no need to build the flags).

@@ -5,6 +5,7 @@
 //! progress, turns Ctrl-C into a stop, and prints the report ([`text`], or JSON).
 
 mod ericw;
+pub mod shards;
 mod text;
 
 use std::path::{Path, PathBuf};
@@ -15,6 +16,7 @@ use anyhow::bail;
 use sightline_compiler::bsp_portals::BspPortalOptions;
 use sightline_compiler::dropin::{self, DropInError, DropInOptions, Report};
 use sightline_compiler::vis::VisError;
+use sightline_compiler::vis::shard::MergeSpec;
 use sightline_formats::texture::Ambient;
 use sightline_job::progress::Progress;
 
@@ -36,7 +38,10 @@ pub const ABOUT: &str = "Compute visibility for a Quake `.bsp` (reading its `.pr
 reads e1m1.bsp; single-dash options (-threads N, -fast, -level N, -noambient, -noambientsky, \
 -noambientwater, -noambientslime, -noambientlava, -visdist N / -farplane N, -nostate, -noprogress) \
 may come before or after the file, and -v, -verbose, -nolog, -nopercent, -nostat and other \
-logging options are accepted and ignored.")]
+logging options are accepted and ignored.
+
+Across machines: `sightline vis plan|shard|merge|status` (see `sightline vis shard --help`) split the \
+flow into shard files and merge them into the map, byte for byte as `sightline vis --waves W` writes it.")]
 pub struct Args {
     /// A Quake, Half-Life or Quake 2 `.bsp` (its `.prt` must sit beside it), a base name (`e1m1`
     /// for `e1m1.bsp`), or a `.prt` file.
@@ -48,6 +53,11 @@ pub struct Args {
     /// Vis options.
     #[command(flatten)]
     pub vis: VisFlags,
+    /// Flow in this many waves, as a shard plan of that many waves does (`sightline vis plan`):
+    /// the result equals the merge of the plan's shards, byte for byte. Default: the usual
+    /// batches (a tighter PVS than few waves).
+    #[arg(long, value_name = "W", value_parser = clap::value_parser!(u32).range(1..=i64::from(sightline_compiler::vis::plan::MAX_WAVES)))]
+    pub waves: Option<u32>,
     /// Far plane: after vis, clusters whose bounding boxes are more than this many units apart
     /// stop seeing each other (nothing within the distance is hidden); 0 turns it off. Needs a
     /// `.bsp` (for its leaf bounds).
@@ -152,11 +162,17 @@ pub fn resolve_input(input: &Path) -> PathBuf {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let t0 = Instant::now();
-    let path = resolve_input(&args.input);
-    check_flags(args, &path)?;
-    let opts = DropInOptions {
-        vis: sightline_compiler::vis::VisOptions { threads: args.threads, ..args.vis.options() },
+    run_with(args, None)
+}
+
+/// The library's options for `args` (the input's output file left to the caller).
+pub(crate) fn drop_in_options(args: &Args) -> DropInOptions {
+    DropInOptions {
+        vis: sightline_compiler::vis::VisOptions {
+            threads: args.threads,
+            waves: args.waves,
+            ..args.vis.options()
+        },
         farplane: args.farplane,
         ambient_off: args.ambient_off(),
         phs_only: args.phs_only,
@@ -166,7 +182,20 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }),
         restart: args.no_state,
         external_vis: None,
-    };
+    }
+}
+
+/// Run the command, with the flow rows taken from a plan's shard files when `merge` is given
+/// (`sightline vis merge`): everything else, the output written included, as the command does.
+pub(crate) fn run_with(args: &Args, merge: Option<MergeSpec>) -> anyhow::Result<Outcome> {
+    let t0 = Instant::now();
+    let path = resolve_input(&args.input);
+    check_flags(args, &path)?;
+    let mut opts = drop_in_options(args);
+    if merge.is_some() && path.is_dir() {
+        bail!("{}: a merge writes one map; name its .bsp or .prt", path.display());
+    }
+    opts.vis.merge = merge;
     let quiet = args.json || args.no_progress;
     if args.external_vis && path.is_dir() {
         let Some(out) = &args.output else { bail!("{}: folder mode needs -o", path.display()) };
@@ -182,9 +211,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     };
     let report = with_progress(quiet, &opts, |progress| dropin::run(&path, &opts, progress, t0))?;
     match &report {
-        Report::Quake(r) => crate::out::report(args.json, r, || text::quake(r))?,
-        Report::Quake2(r) => crate::out::report(args.json, r, || text::quake2(r))?,
-        Report::Quake3(r) => crate::out::report(args.json, r, || text::quake3(r))?,
+        Report::Quake(r) => {
+            crate::out::report(args.json, r, || text::quake(r) + &text::merged(Some(&r.vis)))?
+        }
+        Report::Quake2(r) => {
+            crate::out::report(args.json, r, || text::quake2(r) + &text::merged(r.vis.as_ref()))?;
+        }
+        Report::Quake3(r) => {
+            crate::out::report(args.json, r, || text::quake3(r) + &text::merged(Some(&r.vis)))?
+        }
     }
     Ok(Outcome::Clean)
 }

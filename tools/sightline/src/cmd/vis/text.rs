@@ -1,6 +1,23 @@
 //! The text reports of `sightline vis` (`--json` prints the library's report records instead).
 
 use sightline_compiler::dropin::{PackReport, Q2Report, Q3Report, QuakeReport};
+use sightline_compiler::vis::VisStats;
+
+/// The line of a merge of shard files (`sightline vis merge`), or nothing.
+pub(super) fn merged(v: Option<&VisStats>) -> String {
+    let Some(m) = v.and_then(|v| v.merged.as_ref()) else { return String::new() };
+    let mut line = format!("merged {} shards in {} waves", m.shards, m.waves);
+    if !m.missing.is_empty() {
+        line += &format!(
+            "; PARTIAL: {} shard files missing ({}), their {} portals keep their base vis, which alone gives {} visible leaf pairs",
+            m.missing.len(),
+            m.missing.join(", "),
+            m.missing_portals,
+            m.pairs_from_missing
+        );
+    }
+    line + "\n"
+}
 
 /// The report of a Quake 1 or Half-Life `.bsp`, or of a portal file.
 pub(super) fn quake(r: &QuakeReport) -> String {
