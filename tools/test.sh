@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test of the workspace, in two builds that each command after them reuses:
 #   1. every crate but the Bevy plugin: `cargo test --profile test-opt` (the workspace's default
-#      members; a few minutes cold on 2 cores);
+#      members; a few minutes cold on 2 cores), then a map's vis across a local HyperQueue cluster
+#      (tools/distributed/ci_hq.sh; HyperQueue is installed in target/hq-venv);
 #   2. the Bevy plugin with its viewer: `cargo test -p sightline-bevy --features viewer --profile
 #      test-opt` (Bevy itself: about 25 minutes cold on 2 cores, once), then the headless walk and
 #      the viewer's stills under a virtual display (tools/viewer-shots.sh).
@@ -19,6 +20,17 @@ step() {
 
 step "every crate but the Bevy plugin (cargo test --profile test-opt)"
 cargo test --profile test-opt
+
+step "vis across machines: a local HyperQueue cluster (tools/distributed/ci_hq.sh)"
+# HyperQueue's Python package (server, workers and client in one wheel) in a virtual environment
+# of its own under target/, so the machine's Python is left alone.
+venv="${CARGO_TARGET_DIR:-target}/hq-venv"
+if ! "$venv/bin/python3" -c 'import hyperqueue' 2>/dev/null; then
+    python3 -m venv "$venv"
+    "$venv/bin/python3" -m pip install --quiet hyperqueue
+fi
+PATH="$(realpath "$venv/bin"):$PATH" SIGHTLINE="$(realpath "${CARGO_TARGET_DIR:-target}")/test-opt/sightline" \
+    tools/distributed/ci_hq.sh
 if [ "${1:-}" = "--no-bevy" ]; then
     step "done (Bevy plugin not tested)"
     exit 0
