@@ -24,6 +24,7 @@ mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;
 mod tb_layers;
+mod trace_gate;
 mod unusable_bounds;
 mod validate_compiled;
 mod validate_reference;
