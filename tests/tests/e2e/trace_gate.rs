@@ -130,13 +130,13 @@ fn clearing_pvs_bits_a_view_needs_makes_the_gate_fail_and_name_the_face() {
 }
 
 #[test]
-fn trace_command_writes_the_picture_and_reports_both_modes_in_json() {
+fn trace_command_writes_the_picture_and_reports_both_modes_and_culling_in_json() {
     let Some(path) = sightline_tests::shared_map("ericw/e1m1.vis.bsp") else { return };
     let dir = std::env::temp_dir().join(format!("sightline-trace-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let png = dir.join("view.png");
     let out = std::process::Command::new(sightline_tests::sightline_binary())
-        .args(["trace", "--poses", "3", "--size", "48x32", "--json", "-o"])
+        .args(["trace", "--poses", "3", "--size", "48x32", "--raycast-spacing", "4", "--json", "-o"])
         .arg(&png)
         .arg(&path)
         .output()
@@ -151,10 +151,43 @@ fn trace_command_writes_the_picture_and_reports_both_modes_in_json() {
         );
         assert!(p["set_triangles"].as_u64().unwrap() <= v["scene_triangles"].as_u64().unwrap());
         assert_eq!(p["mismatches"], 0);
+        // The runtime's PVS walk draws every face the trace sees; the ray-cast culling may not.
+        assert_eq!(p["culling"]["pvs_missed_pixels"], 0, "{p}");
+        assert!(p["culling"]["raycast_faces"].as_u64() <= p["culling"]["pvs_faces"].as_u64());
     }
     for i in 0..3 {
         let f = dir.join(format!("view-{i}.png"));
         assert!(std::fs::metadata(&f).is_ok_and(|m| m.len() > 100), "{} written", f.display());
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn runtime_pvs_walk_draws_every_face_the_trace_sees_on_real_levels() {
+    for rel in LEVELS {
+        let Some(path) = sightline_tests::shared_map(rel) else { continue };
+        let out = std::process::Command::new(sightline_tests::sightline_binary())
+            .args([
+                "trace",
+                "--poses",
+                "6",
+                "--seed",
+                "3",
+                "--size",
+                "64x48",
+                "--raycast-spacing",
+                "8",
+                "--json",
+            ])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0), "{rel}: {}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let poses = v["poses"].as_array().unwrap();
+        assert!(poses.len() >= 4, "{rel}: {} of 6 poses traced", poses.len());
+        for p in poses {
+            assert_eq!(p["culling"]["pvs_missed_pixels"], 0, "{rel}: {p}");
+        }
+    }
 }

@@ -6,10 +6,12 @@
 //! Cameras: `--view X,Y,Z` with `--look YAW,PITCH`, or `--pose player_start` (the first
 //! `info_player_start`, 22 units up as Quake's eye, its `angle` as yaw), or `--poses N` random
 //! poses from the runtime's [`sightline_runtime::poses`] (seeded by `--seed`; several poses in one
-//! cluster reuse its cached set).
+//! cluster reuse its cached set; a pose whose eye is in a sky leaf, open to the runtime but opaque
+//! to sight, is skipped with a note).
 
 use std::ops::Bound::Excluded;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::builder::RangedU64ValueParser;
@@ -18,9 +20,9 @@ use serde_json::json;
 
 use sightline_validate::bsp::BspTree;
 use sightline_validate::trace::cells::CellCache;
-use sightline_validate::trace::frame::picture;
+use sightline_validate::trace::frame::{Frame, picture};
 use sightline_validate::trace::scene::LevelScene;
-use sightline_validate::trace::{Camera, trace_camera};
+use sightline_validate::trace::{Camera, TraceError, trace_camera};
 use sightline_validate::{load, pvs};
 
 use super::render::{pair, size, vec3};
@@ -61,6 +63,11 @@ pub struct Args {
     /// Image size `WxH`, each side 1 to 8192.
     #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = size)]
     pub size: (u32, u32),
+    /// Also cull each pose with the runtime's PVS backend and its ray-casting backend (one ray per
+    /// N × N pixels of this picture, never falling back) and count the pixels whose face each
+    /// leaves out: 0 for the PVS walk (conservative), the ray-casting backend's misses otherwise.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub raycast_spacing: Option<u32>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -143,10 +150,22 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut cache = CellCache::default();
     let mut outcome = Outcome::Clean;
     let (mut rays, mut full_s, mut pvs_s) = (0usize, 0f64, 0f64);
-    let mut poses = Vec::new();
+    let (mut poses, mut skipped) = (Vec::new(), 0usize);
+    let world = match args.raycast_spacing {
+        Some(_) => Some(sightline_runtime::load::load_path(&args.input)?),
+        None => None,
+    };
     for (i, cam) in cams.iter().enumerate() {
-        let t = trace_camera(&scene, &matrix, &mut cache, cam)
-            .with_context(|| format!("{}: pose {i}", file()))?;
+        let t = match trace_camera(&scene, &matrix, &mut cache, cam) {
+            Ok(t) => t,
+            // A random pose in a sky leaf (open to the runtime, opaque to sight) is skipped.
+            Err(e @ TraceError::Camera(_)) if args.poses.is_some() => {
+                eprintln!("{}: pose {i} skipped: {e}", file());
+                skipped += 1;
+                continue;
+            }
+            Err(e) => return Err(e).with_context(|| format!("{}: pose {i}", file())),
+        };
         rays += t.rays.len();
         full_s += t.full.time.as_secs_f64();
         pvs_s += t.pvs.time.as_secs_f64();
@@ -178,7 +197,36 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         for m in &t.gate.listed {
             eprintln!("{}: pose {i}, eye cluster {}: {m}", file(), t.eye_cluster);
         }
+        let culled = match (&world, args.raycast_spacing) {
+            (Some(world), Some(spacing)) => Some(culling(world, cam, spacing, &t.full)),
+            _ => None,
+        };
+        if let Some(c) = &culled {
+            if c.pvs_missed > 0 {
+                outcome = Outcome::Finding;
+            }
+            if !args.json {
+                println!(
+                    "pose {i}: PVS walk {} faces in {:.3} ms, {} pixels missed; ray-cast culling (spacing {}, aggressive) {} faces in {:.3} ms, {} pixels missed",
+                    c.pvs_faces,
+                    c.pvs_ms,
+                    c.pvs_missed,
+                    args.raycast_spacing.unwrap_or(0),
+                    c.ray_faces,
+                    c.ray_ms,
+                    c.ray_missed
+                );
+            }
+        }
         poses.push(json!({
+            "culling": culled.as_ref().map(|c| json!({
+                "pvs_faces": c.pvs_faces,
+                "pvs_ms": c.pvs_ms,
+                "pvs_missed_pixels": c.pvs_missed,
+                "raycast_faces": c.ray_faces,
+                "raycast_ms": c.ray_ms,
+                "raycast_missed_pixels": c.ray_missed,
+            })),
             "eye": t.rays.camera.eye.to_array(),
             "yaw": cam.yaw,
             "pitch": cam.pitch,
@@ -213,13 +261,14 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             "pvs_mrays_per_s": reduced,
             "speedup": full_s / pvs_s.max(1e-9),
             "passed": outcome == Outcome::Clean,
+            "poses_skipped": skipped,
             "poses": poses,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
-            "{} poses, {} clusters built; whole scene {} triangles (BVH {:.1} ms, {} KiB): full {full:.2} Mrays/s, PVS {reduced:.2} Mrays/s, speed-up {:.2}x; gate {}",
-            cams.len(),
+            "{} poses ({skipped} skipped), {} clusters built; whole scene {} triangles (BVH {:.1} ms, {} KiB): full {full:.2} Mrays/s, PVS {reduced:.2} Mrays/s, speed-up {:.2}x; gate {}",
+            cams.len() - skipped,
             cache.len(),
             scene.triangles().len(),
             scene.build_time().as_secs_f64() * 1e3,
@@ -229,4 +278,59 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         );
     }
     Ok(outcome)
+}
+
+/// The runtime's PVS backend and ray-casting backend on one pose, against the traced picture.
+struct Culled {
+    pvs_faces: usize,
+    pvs_ms: f64,
+    pvs_missed: usize,
+    ray_faces: usize,
+    ray_ms: f64,
+    ray_missed: usize,
+}
+
+/// Cull `cam` (its picture's optics, near plane 0.01) with both backends and count the pixels of
+/// `full` whose face each output leaves out.
+fn culling(world: &sightline_runtime::World, cam: &Camera, spacing: u32, full: &Frame) -> Culled {
+    use sightline_runtime::backend::raycast::RayCast;
+    use sightline_runtime::backend::{Backend, pvs::Pvs};
+    let aspect = f64::from(cam.width) / f64::from(cam.height);
+    let fov_y = 2.0 * ((cam.fov.to_radians() * 0.5).tan() / aspect).atan();
+    let rc = sightline_runtime::Camera {
+        position: cam.eye.as_vec3(),
+        yaw: cam.yaw as f32,
+        pitch: cam.pitch as f32,
+        roll: 0.0,
+        fov_y: fov_y.to_degrees() as f32,
+        aspect: aspect as f32,
+        near: 0.01,
+        far: 65536.0,
+    };
+    let view = rc.view();
+    let rays = RayCast { spacing, width: cam.width, height: cam.height, adaptive: false, ..RayCast::DEFAULT };
+    let mut scratch = sightline_runtime::Scratch::new(world);
+    let mut out = sightline_runtime::Visible::for_world(world);
+    let mut run = |b: &dyn Backend| {
+        b.cull(world, &view, &mut scratch, &mut out);
+        let start = Instant::now();
+        b.cull(world, &view, &mut scratch, &mut out);
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        let mut shown = vec![false; world.num_faces()];
+        for &f in &out.faces {
+            if let Some(s) = shown.get_mut(f as usize) {
+                *s = true;
+            }
+        }
+        let missed = full
+            .hits
+            .iter()
+            .flatten()
+            .filter(|h| !shown.get(h.face as usize).copied().unwrap_or(false))
+            .count();
+        (out.faces.len(), ms, missed)
+    };
+    let (pvs_faces, pvs_ms, pvs_missed) = run(&Pvs);
+    let (ray_faces, ray_ms, ray_missed) = run(&rays);
+    Culled { pvs_faces, pvs_ms, pvs_missed, ray_faces, ray_ms, ray_missed }
 }
