@@ -10,7 +10,9 @@
 //! PVS set (nothing hit, or something farther) is a visibility bug, reported with the pixel, the
 //! triangle and face, the cluster of the hit point and the eye cluster. Two different faces hit at
 //! bit-equal distance are a **tie** (a ray through the edge the faces share, both visible; each BVH
-//! picks the first it finds): counted, not a failure.
+//! picks the first it finds): counted, not a failure. So is a **graze** ([`gate::GRAZE`]): the
+//! seen face is missing from the PVS set but the ray hits it on its outline, slipping through the
+//! zero-width crack where it meets an occluder's edge, which vis rightly treats as closed.
 //!
 //! # Conventions
 //! - Cameras are [`Camera`]s as `sightline render --view` takes them (Quake angles in degrees, the

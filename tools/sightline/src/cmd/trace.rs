@@ -179,7 +179,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let speedup = t.full.time.as_secs_f64() / t.pvs.time.as_secs_f64().max(1e-9);
         if !args.json {
             println!(
-                "pose {i}: eye cluster {}, PVS set {} of {} triangles ({} faces), full {:.2} Mrays/s, PVS {:.2} Mrays/s, speed-up {speedup:.2}x, set {} ({:.2} ms, {} KiB); {} same, {} ties, {} differ",
+                "pose {i}: eye cluster {}, PVS set {} of {} triangles ({} faces), full {:.2} Mrays/s, PVS {:.2} Mrays/s, speed-up {speedup:.2}x, set {} ({:.2} ms, {} KiB); {} same, {} ties, {} grazes, {} differ",
                 t.eye_cluster,
                 t.set.triangles.len(),
                 scene.triangles().len(),
@@ -191,6 +191,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
                 t.set.heap_bytes() / 1024,
                 t.gate.same,
                 t.gate.ties,
+                t.gate.grazes,
                 t.gate.mismatches,
             );
         }
@@ -242,6 +243,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             "set_cached": t.cached,
             "same": t.gate.same,
             "ties": t.gate.ties,
+            "grazes": t.gate.grazes,
             "mismatches": t.gate.mismatches,
             "listed": t.gate.listed.iter().map(|m| m.to_string()).collect::<Vec<_>>(),
         }));
