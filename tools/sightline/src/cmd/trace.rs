@@ -6,8 +6,8 @@
 //! Cameras: `--view X,Y,Z` with `--look YAW,PITCH`, or `--pose player_start` (the first
 //! `info_player_start`, 22 units up as Quake's eye, its `angle` as yaw), or `--poses N` random
 //! poses from the runtime's [`sightline_runtime::poses`] (seeded by `--seed`; several poses in one
-//! cluster reuse its cached set; a pose whose eye is in a sky leaf, open to the runtime but opaque
-//! to sight, is skipped with a note).
+//! cluster reuse its cached set; a pose whose eye the trace's tree puts in a sky or solid leaf, such
+//! as a sky leaf, open to the runtime but opaque to sight, is skipped with a note).
 
 use std::ops::Bound::Excluded;
 use std::path::{Path, PathBuf};
@@ -158,7 +158,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     for (i, cam) in cams.iter().enumerate() {
         let t = match trace_camera(&scene, &matrix, &mut cache, cam) {
             Ok(t) => t,
-            // A random pose in a sky leaf (open to the runtime, opaque to sight) is skipped.
+            // A random pose in a sky leaf (open to the runtime, opaque to sight) or on a boundary the
+            // two trees round differently is skipped.
             Err(e @ TraceError::Camera(_)) if args.poses.is_some() => {
                 eprintln!("{}: pose {i} skipped: {e}", file());
                 skipped += 1;
