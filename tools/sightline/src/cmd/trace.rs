@@ -81,16 +81,17 @@ const BYTES_PER_PIXEL: u64 = 64;
 const EYE_HEIGHT: f64 = 22.0;
 
 /// The cameras the arguments name.
-fn cameras(args: &Args, entities: &str) -> anyhow::Result<Vec<Camera>> {
+fn cameras(
+    args: &Args,
+    view: Option<DVec3>,
+    look: (f64, f64),
+    entities: &str,
+) -> anyhow::Result<Vec<Camera>> {
     let (width, height) = args.size;
     let cam = |eye: DVec3, yaw: f64, pitch: f64| Camera { eye, yaw, pitch, fov: args.fov, width, height };
     let file = args.input.display();
-    match (&args.view, &args.pose, args.poses) {
-        (Some(v), None, None) => {
-            let (yaw, pitch) =
-                args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
-            Ok(vec![cam(vec3(v, "--view")?, yaw, pitch)])
-        }
+    match (view, &args.pose, args.poses) {
+        (Some(eye), None, None) => Ok(vec![cam(eye, look.0, look.1)]),
         (None, Some(name), None) => {
             if name != "player_start" {
                 bail!("--pose `{name}`: the only named pose is `player_start`");
@@ -133,6 +134,9 @@ fn png_path(out: &Path, i: usize, n: usize) -> PathBuf {
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let (w, h) = args.size;
+    // Every number first, then the memory, then the files: all before any work.
+    let view = args.view.as_deref().map(|s| vec3(s, "--view")).transpose()?;
+    let look = args.look.as_deref().map(|s| pair(s, ",", "--look")).transpose()?.unwrap_or((0.0, 0.0));
     limits::fits_memory(
         &format!("a trace of --size {w}x{h}"),
         u64::from(w) * u64::from(h) * BYTES_PER_PIXEL,
@@ -143,7 +147,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     }
     let level = load::load_level(&args.input, &crate::progress::Bars::new(true))?;
     let file = || args.input.display().to_string();
-    let cams = cameras(args, &level.entities)?;
+    let cams = cameras(args, view, look, &level.entities)?;
     let tree = BspTree::new(&level).with_context(file)?;
     let matrix = pvs::level_pvs(&level).with_context(file)?;
     let scene = LevelScene::new(&tree).with_context(file)?;
