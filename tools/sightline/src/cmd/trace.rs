@@ -159,6 +159,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         Some(_) => Some(sightline_runtime::load::load_path(&args.input)?),
         None => None,
     };
+    // Start the worker threads before the first timed cast, so that it does not pay for them.
+    rayon::broadcast(|_| ());
     for (i, cam) in cams.iter().enumerate() {
         let t = match trace_camera(&scene, &matrix, &mut cache, cam) {
             Ok(t) => t,
