@@ -29,7 +29,8 @@
 //! face output (what drawing a face costs the renderer). Until the next probe, the cheaper one
 //! runs; when the PVS walk wins, frames are the PVS backend's (so in open scenes, where rays travel
 //! far and hide little, it switches itself off, as the thesis says it must be able to). An eye in
-//! solid or sky falls back to the PVS backend too. [`FrameStats::rays`] is 0 on fallback frames.
+//! solid or sky falls back to the PVS backend too. [`FrameStats::rays`](crate::scratch::FrameStats::rays) is 0 on fallback
+//! frames.
 
 use std::time::Instant;
 
