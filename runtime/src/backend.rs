@@ -10,6 +10,9 @@
 //! - [`gvs::Gvs`]: the faces of the eye's GVS view cell, from the cells the world was loaded
 //!   with ([`World::gvs_cells`](crate::World::gvs_cells)); it supports only worlds whose level has
 //!   GVS cells, and outputs faces but no leaves.
+//! - [`raycast::RayCast`]: a sparse grid of rays through the tree marks the leaves they reach, then
+//!   the same frustum walk; **aggressive** (may hide what lies between its rays,
+//!   [`Backend::conservative`] is false), and it falls back to the PVS backend when that is cheaper.
 //!
 //! Backends sit on top of the world: they read it through its public queries and crate-internal
 //! read-only views, and the world knows none of them. A new backend is a module here implementing
@@ -19,12 +22,13 @@ mod api;
 pub mod gvs;
 pub mod portal;
 pub mod pvs;
+pub mod raycast;
 
 pub use api::Backend;
 
 /// Every backend, default first (check [`Backend::supports`] for a given world).
 pub fn all() -> &'static [&'static dyn Backend] {
-    &[&pvs::Pvs, &portal::Portal, &gvs::Gvs]
+    &[&pvs::Pvs, &portal::Portal, &gvs::Gvs, &raycast::RayCast::DEFAULT]
 }
 
 /// The backend called `name`.

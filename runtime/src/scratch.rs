@@ -26,6 +26,8 @@ pub struct FrameStats {
     pub portals_crossed: u32,
     /// True when the portal backend stopped at its work budget.
     pub truncated: bool,
+    /// Rays cast by the ray-casting backend (0 when it fell back to the PVS backend).
+    pub rays: u32,
 }
 
 /// Visible leaves and faces, front to back. Reuse one across frames.
@@ -71,6 +73,12 @@ pub struct Scratch {
     pub(crate) planes: Vec<(Vec3A, f32)>,
     pub(crate) poly_a: Vec<Vec3A>,
     pub(crate) poly_b: Vec<Vec3A>,
+    // Ray-casting backend: per leaf the face a ray last hit in it (`u32::MAX`: none), frames cast
+    // on this scratch, whether the last probe chose the PVS backend, the probe's second output.
+    pub(crate) ray_last_hit: Vec<u32>,
+    pub(crate) ray_frames: u32,
+    pub(crate) ray_off: bool,
+    pub(crate) ray_other: Visible,
     /// Counters of the last frame.
     pub stats: FrameStats,
 }
@@ -127,6 +135,9 @@ impl Scratch {
         self.planes.reserve(256);
         self.poly_a.reserve(64);
         self.poly_b.reserve(64);
+        self.ray_last_hit.clear();
+        self.ray_frames = 0;
+        self.ray_off = false;
     }
 
     /// Start a new set of marks (not PVS marks until the caller says so).

@@ -14,6 +14,12 @@ pub trait Backend: Send + Sync + std::fmt::Debug {
     /// True when this backend can answer for `world` (the portal backend needs portals).
     fn supports(&self, world: &World) -> bool;
 
+    /// True when the backend never hides a visible leaf or face (every backend but the
+    /// ray-casting one, whose sparse rays may miss what lies between them).
+    fn conservative(&self) -> bool {
+        true
+    }
+
     /// Fill `out` (cleared first) with what `view` may see, front to back.
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible);
 }

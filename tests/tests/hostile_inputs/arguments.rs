@@ -79,6 +79,14 @@ const FLAGS: &[Flag] = &[
     Flag { cmd: "render", flag: "--z", good: "-64..64", bad: &["0..inf", "1"], extra: &["--plan"] },
     flag("bench", "--frames", "10", &["0", "-1", "100000001", "18446744073709551615", "1e8"]),
     flag("bench", "--seed", "3", &["18446744073709551616"]),
+    flag("bench", "--ray-spacing", "8", &["0", "641", "-1"]),
+    flag("trace", "--poses", "1", &["0", "100001", "-1"]),
+    flag("trace", "--seed", "3", &["18446744073709551616"]),
+    flag("trace", "--fov", "90", &["0", "179", "nan"]),
+    flag("trace", "--size", "32x24", &["0x10", "8193x10", "10", "axb"]),
+    flag("trace", "--raycast-spacing", "8", &["0", "8193"]),
+    flag("trace", "--view", "0,0,64", &["0,0,nan", "1,2", "1,2,inf"]),
+    flag("trace", "--look", "90,0", &["nan,0", "90"]),
     flag("gvs", "--max-cells", "1", &["0", "1048577"]),
     flag("gvs", "--views", "1", &["10001", "-1", "18446744073709551616"]),
     flag("gvs", "--res", "16", &["8193"]),
@@ -118,11 +126,14 @@ const NOT_NUMERIC: &[(&str, &str)] = &[
     ("render", "--prt"),
     ("render", "--leak"),
     ("bench", "--backend"),
+    ("trace", "--output"),
+    ("trace", "--pose"),
     ("gvs", "--variant"),
     ("gvs", "--output"),
 ];
 
-const COMMANDS: [&str; 8] = ["compile", "vis", "portals", "validate", "info", "render", "bench", "gvs"];
+const COMMANDS: [&str; 9] =
+    ["compile", "vis", "portals", "validate", "info", "render", "trace", "bench", "gvs"];
 
 /// The command line of `cmd` on `input` before `flag`, the flag under test. A picture is small
 /// (unless its size is under test), so that its memory never decides a run under `prlimit`.
@@ -138,6 +149,9 @@ fn base(cmd: &str, input: &str, flag: &str) -> Vec<String> {
         "render" if flag == "--size" => &["-o", "out.png"],
         "render" => &["-o", "out.png", "--size", "64x48"],
         "gvs" => &["--cell", "leaves"],
+        "trace" if flag == "--size" => &["--poses", "1"],
+        "trace" if flag == "--poses" || flag == "--view" => &["--size", "32x24"],
+        "trace" => &["--poses", "1", "--size", "32x24"],
         _ => &[],
     };
     line.extend(rest.iter().map(|s| s.to_string()));

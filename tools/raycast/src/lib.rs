@@ -47,7 +47,7 @@ mod triangle;
 #[cfg(test)]
 mod tests;
 
-pub use brute::intersect_brute;
+pub use brute::{intersect_brute, intersect_brute_front};
 
 use node::{Block, Node, Quad};
 
@@ -106,5 +106,15 @@ impl Bvh {
     /// Number of nodes (for statistics).
     pub fn node_count(&self) -> usize {
         self.nodes.len()
+    }
+
+    /// Bytes the tree holds on the heap (nodes, traversal nodes, triangle blocks and ids; the
+    /// vectors' lengths, not their capacities).
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(self.nodes.as_slice())
+            + size_of_val(self.quads.as_slice())
+            + size_of_val(self.blocks.as_slice())
+            + size_of_val(self.ids.as_slice())
     }
 }

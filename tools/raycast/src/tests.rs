@@ -1,7 +1,7 @@
 use glam::Vec3;
 use proptest::prelude::*;
 
-use crate::{Bvh, Hit, MAX_LEAF, STACK_SMALL, intersect_brute};
+use crate::{Bvh, Hit, MAX_LEAF, STACK_SMALL, intersect_brute, intersect_brute_front};
 
 fn quad_wall(x: f32) -> Vec<[Vec3; 3]> {
     let a = Vec3::new(x, -1.0, -1.0);
@@ -280,6 +280,25 @@ fn sphere_cloud_hits_equal_brute_force() {
         let (a, b) = (bvh.intersect(o, d, t_max), intersect_brute(&tris, o, d, t_max));
         assert!(same_hit(&tris, o, d, a, b), "ray {k}: bvh {a:?} brute {b:?}");
         assert_eq!(bvh.occluded(o, d, t_max), b.is_some(), "ray {k}");
+        let (a, b) = (bvh.intersect_front(o, d, t_max), intersect_brute_front(&tris, o, d, t_max));
+        assert!(same_hit(&tris, o, d, a, b), "ray {k}, front only: bvh {a:?} brute {b:?}");
+    }
+}
+
+/// One-sided hits: a triangle counter-clockwise seen from +z is hit by rays coming from above in
+/// any dominant axis, never from below, and a front-only hit is a hit of the two-sided test.
+#[test]
+fn front_hits_only_from_the_side_the_normal_points_to() {
+    let tri = [Vec3::new(-4.0, -4.0, 0.0), Vec3::new(4.0, -4.0, 0.0), Vec3::new(0.0, 4.0, 0.0)];
+    let bvh = Bvh::build(&[tri]);
+    for d in [Vec3::new(0.1, 0.2, -1.0), Vec3::new(-2.0, 0.1, -1.0), Vec3::new(0.3, 3.0, -1.0)] {
+        let from_above = Vec3::Z * 0.5;
+        let hit = bvh.intersect_front(from_above, d, 1e30);
+        assert_eq!(hit.map(|h| h.triangle), Some(0), "from above along {d}");
+        assert_eq!(hit, bvh.intersect(from_above, d, 1e30));
+        let up = Vec3::new(d.x, d.y, -d.z);
+        assert!(bvh.intersect_front(-Vec3::Z * 0.5, up, 1e30).is_none(), "from below along {up}");
+        assert!(bvh.intersect(-Vec3::Z * 0.5, up, 1e30).is_some(), "two-sided from below along {up}");
     }
 }
 

@@ -10,15 +10,27 @@ use crate::{Bvh, Hit, STACK_DEEP, STACK_SMALL, WIDEN};
 impl Bvh {
     /// Closest hit with `0 < t < t_max`, if any.
     pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        self.traverse::<false>(origin, dir, t_max)
+        self.traverse::<false, false>(origin, dir, t_max)
+    }
+
+    /// Closest hit with `0 < t < t_max` among the triangles the ray meets from their front (the
+    /// side `(v1 - v0) × (v2 - v0)` points to: `dir · normal < 0`), if any: one-sided triangles,
+    /// as an engine that culls back faces draws them.
+    pub fn intersect_front(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        self.traverse::<false, true>(origin, dir, t_max)
     }
 
     /// True when anything is hit with `0 < t < t_max`.
     pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-        self.traverse::<true>(origin, dir, t_max).is_some()
+        self.traverse::<true, false>(origin, dir, t_max).is_some()
     }
 
-    pub(crate) fn traverse<const ANY: bool>(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+    pub(crate) fn traverse<const ANY: bool, const FRONT: bool>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+    ) -> Option<Hit> {
         // A non-finite ray hits nothing (and could enter the empty lanes of a quad, which would
         // lead back to the root).
         if self.ids.is_empty() || t_max.is_nan() || t_max <= 0.0 || !(origin.is_finite() && dir.is_finite()) {
@@ -28,16 +40,16 @@ impl Bvh {
         // One traversal per dominant axis, so that the triangle test indexes by constants.
         // and one per stack size.
         match (ray.kz, self.deep) {
-            (0, false) => self.walk::<ANY, 0, STACK_SMALL>(&ray, dir, t_max),
-            (1, false) => self.walk::<ANY, 1, STACK_SMALL>(&ray, dir, t_max),
-            (_, false) => self.walk::<ANY, 2, STACK_SMALL>(&ray, dir, t_max),
-            (0, true) => self.walk::<ANY, 0, STACK_DEEP>(&ray, dir, t_max),
-            (1, true) => self.walk::<ANY, 1, STACK_DEEP>(&ray, dir, t_max),
-            (_, true) => self.walk::<ANY, 2, STACK_DEEP>(&ray, dir, t_max),
+            (0, false) => self.walk::<ANY, FRONT, 0, STACK_SMALL>(&ray, dir, t_max),
+            (1, false) => self.walk::<ANY, FRONT, 1, STACK_SMALL>(&ray, dir, t_max),
+            (_, false) => self.walk::<ANY, FRONT, 2, STACK_SMALL>(&ray, dir, t_max),
+            (0, true) => self.walk::<ANY, FRONT, 0, STACK_DEEP>(&ray, dir, t_max),
+            (1, true) => self.walk::<ANY, FRONT, 1, STACK_DEEP>(&ray, dir, t_max),
+            (_, true) => self.walk::<ANY, FRONT, 2, STACK_DEEP>(&ray, dir, t_max),
         }
     }
 
-    pub(crate) fn walk<const ANY: bool, const KZ: usize, const N: usize>(
+    pub(crate) fn walk<const ANY: bool, const FRONT: bool, const KZ: usize, const N: usize>(
         &self,
         ray: &Ray,
         dir: Vec3,
@@ -72,7 +84,7 @@ impl Bvh {
             if count > 0 {
                 let first = first as usize;
                 for b in &self.blocks[first..first + count.div_ceil(4) as usize] {
-                    if let Some((k, t, u, v)) = b.hit::<KZ>(&wray, ray, t_best) {
+                    if let Some((k, t, u, v)) = b.hit::<KZ, FRONT>(&wray, ray, t_best) {
                         t_best = t;
                         t_wide = Vec4::splat(t * WIDEN);
                         best = Some(Hit { t, triangle: self.ids[k], u, v });

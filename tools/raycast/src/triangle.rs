@@ -64,8 +64,9 @@ impl Block {
     /// `0 < t < t_max` as `(build position, t, u, v)`, the first of equals in lane order, exactly
     /// as testing them one after the other would give. Blocks where an edge function comes out
     /// exactly zero go through [`tri_hit`] (its `f64` recomputation).
+    /// With `FRONT`, only triangles the ray meets from their front (see [`tri_hit_sided`]).
     #[inline(always)]
-    pub(crate) fn hit<const KZ: usize>(
+    pub(crate) fn hit<const KZ: usize, const FRONT: bool>(
         &self,
         r: &WideRay,
         ray: &Ray,
@@ -88,7 +89,7 @@ impl Block {
         let w = bx * ay - by * ax;
         let zero = Vec4::ZERO;
         if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
-            return b.hit_scalar::<KZ>(ray, t_max);
+            return b.hit_scalar::<KZ, FRONT>(ray, t_max);
         }
         let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
         let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
@@ -96,7 +97,9 @@ impl Block {
         let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
         let inv = Vec4::ONE / det;
         let t = t_scaled * inv;
+        let facing = if FRONT { (det * sz).cmpgt(zero) } else { det.cmpne(zero) };
         let hit = !(neg & pos)
+            & facing
             & det.cmpne(zero)
             & det.abs().cmplt(Vec4::INFINITY)
             & t.cmpgt(zero)
@@ -116,11 +119,15 @@ impl Block {
     }
 
     /// [`tri_hit`] on the block's triangles one after the other.
-    fn hit_scalar<const KZ: usize>(&self, ray: &Ray, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+    fn hit_scalar<const KZ: usize, const FRONT: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
         let mut best = None;
         let mut t_best = t_max;
         for lane in 0..self.n as usize {
-            if let Some((t, u, v)) = tri_hit::<KZ>(&self.tri(lane), ray, t_best) {
+            if let Some((t, u, v)) = tri_hit_sided::<KZ, FRONT>(&self.tri(lane), ray, t_best) {
                 t_best = t;
                 best = Some((self.first as usize + lane, t, u, v));
             }
@@ -135,6 +142,19 @@ impl Block {
 /// come out exactly zero are recomputed in `f64`.
 #[inline(always)]
 pub(crate) fn tri_hit<const KZ: usize>(tri: &Prepared, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+    tri_hit_sided::<KZ, false>(tri, ray, t_max)
+}
+
+/// [`tri_hit`]; with `FRONT`, only when the ray meets the triangle from its front, the side
+/// `(v1 - v0) × (v2 - v0)` points to (`dir · normal < 0`: the corners run counter-clockwise as
+/// the ray sees them). The side comes from the sign of the test's own determinant, so a ray
+/// meets each triangle of a closed mesh's seam from the same side as its neighbours.
+#[inline(always)]
+pub(crate) fn tri_hit_sided<const KZ: usize, const FRONT: bool>(
+    tri: &Prepared,
+    ray: &Ray,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
     let a = tri.v0 - ray.origin;
     let b = tri.v1 - ray.origin;
     let c = tri.v2 - ray.origin;
@@ -160,7 +180,7 @@ pub(crate) fn tri_hit<const KZ: usize>(tri: &Prepared, ray: &Ray, t_max: f32) ->
         return None;
     }
     let det = u + v + w;
-    if det == 0.0 || !det.is_finite() {
+    if det == 0.0 || !det.is_finite() || (FRONT && det * ray.sz <= 0.0) {
         return None;
     }
     let az = ray.sz * a[kz];

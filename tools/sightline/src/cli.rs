@@ -35,6 +35,8 @@ pub enum Command {
     Info(cmd::info::Args),
     #[command(about = cmd::render::ABOUT)]
     Render(cmd::render::Args),
+    #[command(about = cmd::trace::ABOUT)]
+    Trace(cmd::trace::Args),
     #[command(about = cmd::bench::ABOUT)]
     Bench(cmd::bench::Args),
     #[command(about = cmd::gvs::ABOUT)]
@@ -77,6 +79,7 @@ pub fn main() -> i32 {
         Command::Validate(a) => cmd::validate::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Trace(a) => cmd::trace::run(a),
         Command::Bench(a) => cmd::bench::run(a),
         Command::Gvs(a) => cmd::gvs::run(a),
         Command::VisShards(a) => cmd::vis::shards::run(a),

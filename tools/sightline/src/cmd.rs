@@ -6,5 +6,6 @@ pub mod gvs;
 pub mod info;
 pub mod portals;
 pub mod render;
+pub mod trace;
 pub mod validate;
 pub mod vis;

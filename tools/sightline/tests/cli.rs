@@ -880,7 +880,7 @@ fn zero_rays_is_an_argument_error() {
     assert_eq!(code(&o), 0, "one ray is a budget: {}", stderr(&o));
 }
 
-/// Backends `bench --json` ran.
+/// Backends `bench --json` ran (the ray-casting one runs on every level).
 fn bench_backends(path: &Path) -> Vec<String> {
     let o = run(&["bench", s(path), "--frames", "20", "--json"]);
     assert_eq!(code(&o), 0, "bench {}: {}", path.display(), stderr(&o));
@@ -895,9 +895,13 @@ fn bench_and_vis_read_a_crlf_portal_file_alike() {
     let (bsp, prt) = tiny_bsp();
     let path = dir.join("tiny.bsp");
     std::fs::write(&path, &bsp).expect("write");
-    assert_eq!(bench_backends(&path), ["pvs"], "no portal file: no portal backend");
+    assert_eq!(bench_backends(&path), ["pvs", "raycast"], "no portal file: no portal backend");
     std::fs::write(dir.join("tiny.prt"), prt.replace('\n', "\r\n")).expect("write");
-    assert_eq!(bench_backends(&path), ["pvs", "portal"], "the CRLF PRT1 gives the portal backend its portal");
+    assert_eq!(
+        bench_backends(&path),
+        ["pvs", "portal", "raycast"],
+        "the CRLF PRT1 gives the portal backend its portal"
+    );
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     assert_eq!(stdout_json(&o)["prt_format"], "PRT1");
@@ -920,7 +924,7 @@ fn vis_and_bench_find_the_portal_file_of_a_vis_bsp_by_one_rule() {
     std::fs::write(dir.join("tiny.prt"), &prt).expect("write");
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
-    assert_eq!(bench_backends(&path), ["pvs", "portal"]);
+    assert_eq!(bench_backends(&path), ["pvs", "portal", "raycast"]);
     // NAME.vis.prt comes first: a PRT2 there is what both use (vis reads it, the portal backend
     // needs PRT1 and so does not run).
     let prt2 = "PRT2\n2\n2\n1\n4 0 1 (0 -64 0) (0 64 0) (0 64 64) (0 -64 64)\n0 -1\n1 -1\n";
@@ -928,7 +932,7 @@ fn vis_and_bench_find_the_portal_file_of_a_vis_bsp_by_one_rule() {
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     assert_eq!(stdout_json(&o)["prt_format"], "PRT2");
-    assert_eq!(bench_backends(&path), ["pvs"]);
+    assert_eq!(bench_backends(&path), ["pvs", "raycast"]);
 }
 
 #[test]

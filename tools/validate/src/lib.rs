@@ -39,6 +39,7 @@ pub mod render;
 pub mod report;
 pub mod rng;
 pub(crate) mod sample;
+pub mod trace;
 
 pub use sightline_job::cancel::Cancel;
 use sightline_job::progress;

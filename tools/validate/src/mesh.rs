@@ -18,8 +18,8 @@
 //! where the tree has a sliver the faces do not close.
 
 use glam::{DVec3, Vec3};
-use sightline_formats::Contents;
 use sightline_formats::texture::TextureKind;
+use sightline_formats::{Contents, Face, Level};
 use sightline_raycast::Bvh;
 
 use super::bsp::{BspTree, Crossing};
@@ -79,17 +79,9 @@ impl<'a> MeshOracle<'a> {
     /// Triangulate the world model's faces (fans) and build the BVH.
     pub fn new(tree: &'a BspTree<'a>, length: f64) -> Result<Self, MeshError> {
         let level = tree.level();
-        let Some(world) = level.models.first() else { return Err(MeshError::NoWorldModel) };
         let mut triangles = Vec::new();
         let mut see_through = Vec::new();
-        let first = world.first_face as usize;
-        let faces = level.faces.get(first..first + world.num_faces as usize);
-        let Some(faces) = faces else { return Err(MeshError::FacesOutOfRange) };
-        for (i, f) in faces.iter().enumerate() {
-            let v0 = f.first_vertex as usize;
-            let Some(corners) = level.vertices.get(v0..v0 + f.num_vertices as usize) else {
-                return Err(MeshError::CornersOutOfRange { face: first + i });
-            };
+        for (_, f, corners) in world_faces(level)? {
             let liquid_name =
                 level.textures.get(f.texture as usize).is_some_and(|t| TextureKind::of(t).is_liquid());
             let [front, back] = face_sides(tree, f.plane, corners);
@@ -98,8 +90,8 @@ impl<'a> MeshOracle<'a> {
             };
             let open = |leaf: Option<usize>| leaf.is_some_and(|l| tree.is_open(l));
             let through = (open(front) && open(back)) || (liquid_name && !solid(front) && !solid(back));
-            for k in 2..corners.len() {
-                triangles.push([Vec3::from(corners[0]), Vec3::from(corners[k - 1]), Vec3::from(corners[k])]);
+            for t in fan(corners) {
+                triangles.push(t);
                 see_through.push(through);
             }
         }
@@ -128,6 +120,33 @@ impl<'a> MeshOracle<'a> {
         }
         t
     }
+}
+
+/// A world face: its index in the level's faces, the face, its corners.
+pub(crate) type WorldFace<'a> = (usize, &'a Face, &'a [[f32; 3]]);
+
+/// The world model's faces (model 0), in face order.
+pub(crate) fn world_faces(level: &Level) -> Result<Vec<WorldFace<'_>>, MeshError> {
+    let Some(world) = level.models.first() else { return Err(MeshError::NoWorldModel) };
+    let first = world.first_face as usize;
+    let faces = level.faces.get(first..first.saturating_add(world.num_faces as usize));
+    let Some(faces) = faces else { return Err(MeshError::FacesOutOfRange) };
+    faces
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let v0 = f.first_vertex as usize;
+            match level.vertices.get(v0..v0.saturating_add(f.num_vertices as usize)) {
+                Some(corners) => Ok((first + i, f, corners)),
+                None => Err(MeshError::CornersOutOfRange { face: first + i }),
+            }
+        })
+        .collect()
+}
+
+/// A face's triangles as a fan around its first corner (none for fewer than three corners).
+pub(crate) fn fan(corners: &[[f32; 3]]) -> impl Iterator<Item = [Vec3; 3]> + '_ {
+    (2..corners.len()).map(|k| [Vec3::from(corners[0]), Vec3::from(corners[k - 1]), Vec3::from(corners[k])])
 }
 
 /// The leaves just in front of and just behind the middle of a face ([`FACE_PROBE`] off it);

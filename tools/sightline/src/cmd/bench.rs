@@ -8,7 +8,9 @@
 //! A second, *coherent* measurement turns the camera in place: after each of the first
 //! `frames / 8` poses, seven more frames at the same eye, 5° further in yaw each (only those seven
 //! are timed), as a real camera that stays in one spot for a while.
-//! The GVS backend is measured when the level carries GVS cells (`sightline gvs ... -o`).
+//! The GVS backend is measured when the level carries GVS cells (`sightline gvs ... -o`). The
+//! ray-casting backend is aggressive (it may hide visible leaves): the table says so, and its
+//! JSON report has `"conservative": false`.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -16,7 +18,7 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::builder::RangedU64ValueParser;
 use serde_json::json;
-use sightline_runtime::backend::{self, Backend, pvs::Pvs};
+use sightline_runtime::backend::{self, Backend, pvs::Pvs, raycast::RayCast};
 use sightline_runtime::walk;
 use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 
@@ -50,6 +52,12 @@ pub struct Args {
     /// per cluster change (what levels over the memory budget do).
     #[arg(long)]
     pub no_pvs_trees: bool,
+    /// Ray-casting backend: pixels between two rays along each axis of its 640 × 480 viewport.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=640))]
+    pub ray_spacing: u32,
+    /// Ray-casting backend: cast rays every frame, never falling back to the PVS walk.
+    #[arg(long)]
+    pub ray_always: bool,
     /// Leave out back faces in the walk (`View::cull_back_faces`), as an engine drawing faces
     /// would.
     #[arg(long)]
@@ -100,6 +108,13 @@ struct Report {
     portals_crossed_p99: u32,
     /// Median ns per frame of the coherent camera (turning in place; see the module docs).
     coherent_ns_median: u64,
+    /// False for a backend that may hide visible leaves (the ray-casting one): its counts are
+    /// not comparable with a conservative backend's as a measure of culling quality.
+    conservative: bool,
+    /// Ray-casting backend: frames that cast rays (the others fell back to the PVS walk), and
+    /// rays per such frame.
+    ray_frames: usize,
+    rays_per_frame: f64,
 }
 
 /// Run the command.
@@ -140,6 +155,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             })
             .collect::<anyhow::Result<_>>()?
     };
+    let rays = RayCast { spacing: args.ray_spacing, adaptive: !args.ray_always, ..RayCast::DEFAULT };
+    let chosen: Vec<&dyn Backend> =
+        chosen.into_iter().map(|b| if b.name() == rays.name() { &rays as &dyn Backend } else { b }).collect();
     let reports: Vec<Report> =
         chosen.iter().map(|b| measure(&world, *b, &cams, args.cull_back_faces)).collect();
     if args.json {
@@ -191,6 +209,7 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera], cull: bool) ->
     let (mut marked, mut leaves, mut faces, mut truncated) = (0u64, 0u64, 0u64, 0usize);
     let (mut visited, mut tests) = (0u64, 0u64);
     let mut crossed = Vec::with_capacity(views.len());
+    let (mut ray_frames, mut rays) = (0usize, 0u64);
     for view in &views {
         let start = Instant::now();
         backend.cull(world, view, &mut scratch, &mut out);
@@ -204,6 +223,8 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera], cull: bool) ->
         visited += u64::from(scratch.stats.nodes_visited);
         tests += u64::from(scratch.stats.box_tests);
         crossed.push(scratch.stats.portals_crossed);
+        ray_frames += usize::from(scratch.stats.rays > 0);
+        rays += u64::from(scratch.stats.rays);
     }
     let portals_crossed_avg = crossed.iter().map(|&c| f64::from(c)).sum::<f64>() / views.len().max(1) as f64;
     crossed.sort_unstable();
@@ -237,6 +258,9 @@ fn measure(world: &World, backend: &dyn Backend, cams: &[Camera], cull: bool) ->
         coherent_ns_median,
         portals_crossed_avg,
         portals_crossed_p99,
+        conservative: backend.conservative(),
+        ray_frames,
+        rays_per_frame: rays as f64 / ray_frames.max(1) as f64,
     }
 }
 
@@ -343,6 +367,12 @@ fn print_table(input: &std::path::Path, world: &World, frames: usize, seed: u64,
         }
         if r.truncated_frames > 0 {
             println!("         {} frames hit the portal search budget", r.truncated_frames);
+        }
+        if !r.conservative {
+            println!(
+                "         AGGRESSIVE, not conservative: may hide visible leaves; {} of {} frames cast {:.0} rays, the others fell back to the PVS walk",
+                r.ray_frames, r.frames, r.rays_per_frame
+            );
         }
     }
 }

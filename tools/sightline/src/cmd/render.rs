@@ -94,7 +94,7 @@ fn load_any(path: &std::path::Path) -> anyhow::Result<(Level, Option<Vec<DVec3>>
 }
 
 /// Parse `x,y,z`.
-fn vec3(s: &str, what: &str) -> anyhow::Result<DVec3> {
+pub(crate) fn vec3(s: &str, what: &str) -> anyhow::Result<DVec3> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -107,7 +107,7 @@ fn vec3(s: &str, what: &str) -> anyhow::Result<DVec3> {
 }
 
 /// Parse `a,b` or `a..b`.
-fn pair(s: &str, sep: &str, what: &str) -> anyhow::Result<(f64, f64)> {
+pub(crate) fn pair(s: &str, sep: &str, what: &str) -> anyhow::Result<(f64, f64)> {
     let (a, b) = s.split_once(sep).with_context(|| format!("{what} `{s}`: expected a{sep}b"))?;
     let a: f64 = a.trim().parse().with_context(|| format!("{what} `{s}`"))?;
     let b: f64 = b.trim().parse().with_context(|| format!("{what} `{s}`"))?;
@@ -118,7 +118,7 @@ fn pair(s: &str, sep: &str, what: &str) -> anyhow::Result<(f64, f64)> {
 }
 
 /// Parse `WxH` (`--size`), each side in `1..=MAX_SIDE`.
-fn size(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn size(s: &str) -> Result<(u32, u32), String> {
     let side = |t: &str| t.trim().parse::<u32>().ok().filter(|v| (1..=MAX_SIDE).contains(v));
     match s.split_once('x').map(|(w, h)| (side(w), side(h))) {
         Some((Some(w), Some(h))) => Ok((w, h)),
