@@ -34,3 +34,4 @@ mod vis_q3;
 mod vis_real;
 mod vis_shapes;
 mod vis_shards;
+mod viscluster;
