@@ -102,3 +102,76 @@ pub(crate) fn merge_keys(keys: &mut [u32], groups: &[Option<u32>]) {
         }
     }
 }
+
+/// The merge `func_viscluster` entities ask of a Quake 1 or Half-Life `.bsp` vised from its
+/// `.prt` (see [`bsp_merge`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct BspMerge {
+    /// Per cluster of the portal file, its merged cluster (numbered by lowest input cluster).
+    pub new_id: Vec<u32>,
+    /// Merged clusters.
+    pub groups: u32,
+    /// Per entity with a brush model, in entity order: the vis leaves it merged.
+    pub leaves: Vec<usize>,
+}
+
+/// The merge for `bsp`'s `func_viscluster` entities, `None` when it has none with a brush model
+/// (`"model" "*N"`, `N ≥ 1`, a model the file has) or its entity text does not parse. A compiled
+/// `.bsp` keeps no brush planes, so **inside** here is: the centre of the leaf's stored bounds
+/// lies within the model's stored bounds (its box, which holds its brushes: at worst a few more
+/// leaves merge, which stays conservative). Vis leaf `j` of `prt` is BSP leaf `j + 1`; a leaf the
+/// `.bsp` lacks or whose bounds are not finite stays as it is. A cluster holding leaves of several
+/// entities joins the first in entity order; every other cluster stays alone.
+pub(crate) fn bsp_merge(
+    bsp: &sightline_formats::bsp::Bsp,
+    prt: &sightline_formats::prt::PortalFile,
+) -> Option<BspMerge> {
+    let entities = sightline_formats::entities::parse(&bsp.entities).ok()?;
+    let boxes: Vec<(DVec3, DVec3)> = entities
+        .iter()
+        .filter(|e| e.classname() == CLASSNAME)
+        .filter_map(|e| e.model().filter(|&m| m >= 1))
+        .filter_map(|m| bsp.models.get(m as usize))
+        .map(|m| (DVec3::from(m.mins.map(f64::from)), DVec3::from(m.maxs.map(f64::from))))
+        .collect();
+    if boxes.is_empty() {
+        return None;
+    }
+    let nc = prt.num_clusters as usize;
+    let mut group: Vec<Option<usize>> = vec![None; nc];
+    for (j, &c) in prt.leaf_clusters.iter().enumerate() {
+        let Some(l) = bsp.leaves.get(j + 1) else { continue };
+        let centre = (DVec3::from(l.mins.map(f64::from)) + DVec3::from(l.maxs.map(f64::from))) * 0.5;
+        if !centre.is_finite() {
+            continue;
+        }
+        let g = boxes.iter().position(|(lo, hi)| centre.cmpge(*lo).all() && centre.cmple(*hi).all());
+        if let (Some(g), Some(slot)) = (g, group.get_mut(c as usize)) {
+            *slot = Some(slot.map_or(g, |o| o.min(g)));
+        }
+    }
+    let mut first: Vec<Option<u32>> = vec![None; boxes.len()];
+    let mut new_id = Vec::with_capacity(nc);
+    let mut groups = 0u32;
+    for g in &group {
+        let id = match g.map(|g| &mut first[g]) {
+            Some(Some(id)) => *id,
+            slot => {
+                let id = groups;
+                groups += 1;
+                if let Some(s) = slot {
+                    *s = Some(id);
+                }
+                id
+            }
+        };
+        new_id.push(id);
+    }
+    let mut leaves = vec![0usize; boxes.len()];
+    for &c in &prt.leaf_clusters {
+        if let Some(Some(g)) = group.get(c as usize) {
+            leaves[*g] += 1;
+        }
+    }
+    Some(BspMerge { new_id, groups, leaves })
+}
