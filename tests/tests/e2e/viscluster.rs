@@ -2,8 +2,9 @@
 //! lies inside an entity's brushes, computed here from the level's leaf bounds, are exactly that
 //! entity's cluster (the first entity in map order wins an overlap; one cluster for several
 //! brushes); no other cluster changes; the world's tree, leaves and faces are the same as without
-//! it; the PVS has no misses and only grows; it never seals a leak; and one holding no open leaf
-//! changes nothing at all.
+//! it; the PVS has no misses and only grows; it never seals a leak; one holding no open leaf
+//! changes nothing at all; one over a whole detail map leaves one cluster; and the compile's
+//! report and `--json` count each entity's leaves.
 
 use sightline_compiler::{CompileError, CompileOptions, Compiled, NoProgress, Source, compile};
 use sightline_formats::{Contents, Level};
@@ -233,4 +234,58 @@ fn a_viscluster_never_seals_a_leak() {
         }
     }
     assert!(leaks > 0, "some hole leaks");
+}
+
+#[test]
+fn a_viscluster_over_every_leaf_of_a_detail_map_leaves_one_cluster() {
+    let path = sightline_tests::bundled_maps().join("detail_water.map");
+    let plain = std::fs::read_to_string(&path).expect("bundled map");
+    let without = compile_text(&plain).expect("compiles");
+    assert!(without.level.num_clusters > 1 && without.stats.detail_brushes > 0);
+    let all = viscluster(&[([-65536.0; 3], [65536.0; 3])]);
+    let with = compile_text(&format!("{plain}{all}")).expect("compiles");
+    assert_eq!(with.level.num_clusters, 1);
+    assert!(with.prt.portals.is_empty(), "no portal joins two clusters");
+    assert_eq!(with.stats.visclusters[0].leaves, with.stats.vis_leaves);
+    assert_eq!(with.level.leaves, {
+        let mut l = without.level.leaves.clone();
+        l.iter_mut().filter(|l| l.cluster >= 0).for_each(|l| l.cluster = 0);
+        l
+    });
+}
+
+#[test]
+fn the_compile_report_and_json_count_each_viscluster() {
+    let params = PARAMS[1];
+    let vols = volumes(&layout(&params).rooms);
+    let text = format!("{}{}", pillared(&params), vols.iter().map(|v| viscluster(v)).collect::<String>());
+    let expected = compile_text(&text).expect("compiles").stats.visclusters;
+    let dir = std::env::temp_dir().join(format!("sightline-viscluster-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let input = dir.join("vc.map");
+    std::fs::write(&input, &text).expect("write map");
+    let run = |json: bool| {
+        let mut cmd = std::process::Command::new(sightline_tests::sightline_binary());
+        cmd.arg("compile").arg(&input).arg("-o").arg(dir.join("vc.slvl"));
+        if json {
+            cmd.arg("--json");
+        }
+        let out = cmd.output().expect("run sightline");
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let v: serde_json::Value = serde_json::from_str(run(true).trim()).expect("json");
+    let listed: Vec<(u64, u64)> = v["stats"]["visclusters"]
+        .as_array()
+        .expect("a list")
+        .iter()
+        .map(|e| (e["line"].as_u64().expect("line"), e["leaves"].as_u64().expect("leaves")))
+        .collect();
+    assert_eq!(listed, expected.iter().map(|e| (e.line as u64, e.leaves as u64)).collect::<Vec<_>>());
+    let text_report = run(false);
+    for e in &expected {
+        let line = format!("func_viscluster at line {}: {} vis leaves in one cluster", e.line, e.leaves);
+        assert!(text_report.contains(&line), "{text_report}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
