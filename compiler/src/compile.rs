@@ -18,6 +18,7 @@ use crate::prepared::OUTSIDE_MARGIN;
 use crate::report::{Compiled, LeakReport, POINTFILE_STEP, PhaseTime};
 use crate::source::Source;
 use crate::vis::VisOptions;
+use crate::viscluster::{self, VisClusterStat};
 use crate::visdata::store_pvs;
 use crate::{bsp, emit, load, mesh, outside, portals, vis};
 
@@ -190,6 +191,7 @@ fn compile_here(
         let (ctree, origin) = tree.collapse_detail(&fill.contents);
         (portals::build(&ctree, &prep.planes, &bounds), origin)
     });
+    let vis_groups = viscluster::leaf_groups(&tree, &fill.contents, &prep.visclusters);
     let world = emit::World {
         tree: &tree,
         contents: &fill.contents,
@@ -197,6 +199,7 @@ fn compile_here(
         faces: &prep.world_faces,
         bounds: world_bounds,
         cluster_portals: collapsed.as_ref().map(|(g, o)| (g, o.as_slice())),
+        vis_groups: &vis_groups,
     };
     let out = emit::emit(&prep.planes, &world, &submodels, prep.entities, prep.textures, &prep.surfaces);
     emit_phase.advance(1);
@@ -213,6 +216,15 @@ fn compile_here(
     stats.portals = level.portals.len();
     stats.faces = level.faces.len();
     stats.filled_leaves = fill.filled;
+    stats.visclusters = prep
+        .visclusters
+        .iter()
+        .enumerate()
+        .map(|(g, v)| VisClusterStat {
+            line: v.line,
+            leaves: out.viscluster_leaves.get(g).copied().unwrap_or(0),
+        })
+        .collect();
     let mut level = level;
     let mut vis_stats = None;
     if let (Some(vis_opts), None) = (&opts.vis, &leak) {

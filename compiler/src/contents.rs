@@ -121,6 +121,8 @@ pub(crate) enum EntityRole {
     Submodel,
     /// A point entity.
     Point,
+    /// `func_viscluster`: its brushes only mark leaves to merge into one cluster for vis.
+    VisCluster,
 }
 
 /// The role of an entity by class name and whether it has brushes.
@@ -129,6 +131,7 @@ pub(crate) fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
         "worldspawn" | "func_group" => EntityRole::World,
         "func_detail" | "func_detail_wall" | "func_detail_fence" => EntityRole::Detail,
         "func_detail_illusionary" => EntityRole::Illusionary,
+        crate::viscluster::CLASSNAME => EntityRole::VisCluster,
         _ if has_brushes => EntityRole::Submodel,
         _ => EntityRole::Point,
     }
@@ -168,5 +171,7 @@ mod tests {
         assert_eq!(entity_role("func_detail_illusionary", true), EntityRole::Illusionary);
         assert_eq!(entity_role("func_door", true), EntityRole::Submodel);
         assert_eq!(entity_role("light", false), EntityRole::Point);
+        assert_eq!(entity_role("func_viscluster", true), EntityRole::VisCluster);
+        assert_eq!(entity_role("func_viscluster", false), EntityRole::VisCluster);
     }
 }

@@ -271,6 +271,29 @@ pub(crate) fn flow(
     crate::vis::run(prt, &opts.vis, progress).map_err(DropInError::vis_at(path))
 }
 
+/// [`flow`] with the clusters merged as `merge` says (a `func_viscluster` of the `.bsp`): vis
+/// runs on the merged portal file (`vis::coarsen`'s, whose conservativeness argument holds), and
+/// the result is expanded back to the input's clusters. A note says what each entity merged.
+pub(crate) fn flow_merged(
+    prt: &sightline_formats::prt::PortalFile,
+    merge: Option<&crate::viscluster::BspMerge>,
+    opts: &DropInOptions,
+    progress: &dyn Progress,
+    path: &Path,
+) -> Result<crate::vis::VisResult, DropInError> {
+    let Some(m) = merge else { return flow(prt, opts, progress, path) };
+    for (i, n) in m.leaves.iter().enumerate() {
+        progress.note(&format!(
+            "{}: func_viscluster {} (by entity order) merged {n} vis leaves",
+            path.display(),
+            i + 1
+        ));
+    }
+    let coarse = crate::vis::coarsen::build(prt, &m.new_id, m.groups);
+    let result = flow(&coarse, opts, progress, path)?;
+    Ok(crate::vis::coarsen::expand(result, prt, &m.new_id))
+}
+
 /// Every cluster's row of `result` in Quake's byte layout, back to back (Quake 2 and 3 rows).
 pub(crate) fn cluster_rows(result: &crate::vis::VisResult, clusters: usize) -> Vec<u8> {
     let mut rows = Vec::with_capacity(clusters * sightline_formats::bits::bytes::len(clusters));

@@ -6,7 +6,8 @@
 //!   cluster, every other vis leaf its own, clusters numbered by first vis leaf. The `.prt` is
 //!   PRT1 when clusters are one per leaf, else PRT2 whose portals are those of the tree with each
 //!   detail subtree collapsed to one cell (whole structural portals, as qbsp writes them: detail
-//!   never blocks vis). The level's own portals stay leaf to leaf.
+//!   never blocks vis). The level's own portals stay leaf to leaf. A `func_viscluster` makes the
+//!   leaves inside it (and their detail clusters) one cluster, dropping the portals within it.
 //! - A face lies on its brush side's plane and is listed by every kept leaf it touches on its
 //!   front side (found by pushing the polygon down the tree, splitting with [`ON_EPSILON`]); a
 //!   face that touches no kept leaf borders only filled space and is dropped.
@@ -45,6 +46,9 @@ pub struct World<'a> {
     /// With detail: the portals of the tree with detail subtrees collapsed, and for each index of
     /// that tree the world tree index it stands for. These become the `.prt`'s cluster portals.
     pub cluster_portals: Option<(&'a Portals, &'a [u32])>,
+    /// Per tree index, the `func_viscluster` whose volume holds the leaf (empty: none); each
+    /// entity's leaves become one cluster (see `viscluster`).
+    pub vis_groups: &'a [Option<u32>],
 }
 
 /// A submodel handed to [`emit`].
@@ -65,6 +69,9 @@ pub struct Emitted {
     pub level: Level,
     /// The portal file for vis.
     pub prt: PortalFile,
+    /// Per `func_viscluster` (by its index in [`World::vis_groups`]), the vis leaves of its
+    /// cluster; shorter when the last ones hold none.
+    pub viscluster_leaves: Vec<usize>,
 }
 
 fn f3(v: glam::DVec3) -> [f32; 3] {
@@ -92,7 +99,10 @@ pub fn emit(
     // World tree.
     let mut leaf_map = vec![u32::MAX; world.tree.nodes.len()];
     let head = emit_tree(&mut out, world.tree, world.contents, &mut leaf_map);
-    let keys = cluster_keys(world.tree);
+    let mut keys = cluster_keys(world.tree);
+    crate::viscluster::merge_keys(&mut keys, world.vis_groups);
+    let group_base = keys.len() as u32;
+    let mut viscluster_leaves: Vec<usize> = Vec::new();
     let mut clusters: HashMap<u32, i32> = HashMap::new();
     let mut leaf_clusters = Vec::new();
     for (t, &l) in leaf_map.iter().enumerate() {
@@ -105,6 +115,12 @@ pub fn emit(
         let next = clusters.len() as i32;
         leaf.cluster = *clusters.entry(keys[t]).or_insert(next);
         leaf_clusters.push(leaf.cluster as u32);
+        if let Some(g) = keys[t].checked_sub(group_base).map(|g| g as usize) {
+            if viscluster_leaves.len() <= g {
+                viscluster_leaves.resize(g + 1, 0);
+            }
+            viscluster_leaves[g] += 1;
+        }
     }
     out.level.num_clusters = clusters.len() as u32;
     let num_vis_leaves = leaf_clusters.len() as u32;
@@ -166,7 +182,10 @@ pub fn emit(
         out.level.portals.push(Portal { leaves, plane, first_vertex, num_vertices: p.winding.len() as u32 });
         if world.cluster_portals.is_none() {
             let clusters = leaves.map(|l| out.level.leaves[l as usize].cluster as u32);
-            prt.portals.push(PrtPortal { leaves: clusters, winding: p.winding.clone() });
+            // Only a func_viscluster puts both sides of a portal in one cluster here.
+            if clusters[0] != clusters[1] {
+                prt.portals.push(PrtPortal { leaves: clusters, winding: p.winding.clone() });
+            }
         }
     }
     if let Some((graph, origin)) = world.cluster_portals {
@@ -208,7 +227,7 @@ pub fn emit(
             num_faces: out.level.faces.len() as u32 - first_face,
         });
     }
-    Emitted { level: out.level, prt }
+    Emitted { level: out.level, prt, viscluster_leaves }
 }
 
 impl Out<'_> {

@@ -29,6 +29,7 @@ mod prepared;
 mod report;
 mod source;
 pub mod vis;
+mod viscluster;
 pub mod visdata;
 
 #[cfg(test)]
@@ -43,4 +44,5 @@ pub use options::CompileOptions;
 pub use prepared::OUTSIDE_MARGIN;
 pub use report::{Compiled, LeakReport, POINTFILE_STEP, PhaseTime, Stats};
 pub use source::{Source, SourceError};
+pub use viscluster::VisClusterStat;
 pub use visdata::store_pvs;

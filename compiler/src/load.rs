@@ -21,6 +21,7 @@ use crate::layers;
 use crate::prepared::Prepared;
 use crate::report::Stats;
 use crate::source::Source;
+use crate::viscluster::VisCluster;
 
 /// Class and line of entity `index` (for messages).
 pub(crate) fn entity_info(source: &Source, index: usize) -> (String, u32) {
@@ -89,6 +90,7 @@ pub(crate) fn load_map(
     let mut seeds = Vec::new();
     let mut entities = String::new();
     let mut stats = Stats { brushes: total, ..Stats::default() };
+    let mut visclusters = Vec::new();
 
     for (ei, e) in map.entities.iter().enumerate() {
         // An entity of a layer omitted from export is not compiled; worldspawn keeps its keys.
@@ -128,6 +130,9 @@ pub(crate) fn load_map(
             // World, func_group and detail entities merge into the world and leave no text.
             entity_text(&mut entities, e, model);
         }
+        if role == EntityRole::VisCluster {
+            visclusters.push(VisCluster { line: e.line, brushes: Vec::new() });
+        }
         for (bi, b) in brushes.iter().enumerate() {
             csg.advance(1);
             if cancel.is_cancelled() {
@@ -147,6 +152,24 @@ pub(crate) fn load_map(
                      with the square of its sides): split it into several brushes",
                     b.sides.len()
                 )));
+            }
+            if role == EntityRole::VisCluster {
+                // Not geometry: only its planes, to tell which leaves lie inside.
+                if let Some(s) = b
+                    .sides
+                    .iter()
+                    .find(|s| s.points.iter().any(|p| !p.is_finite() || p.abs().max_element() > WORLD_LIMIT))
+                {
+                    return Err(CompileError::HugeCoordinate {
+                        file: file.to_string(),
+                        line: s.line,
+                        what: format!("a point of entity {ei} (`{}`) brush {bi}", e.classname()),
+                    });
+                }
+                if let Some(v) = visclusters.last_mut() {
+                    v.brushes.push(b.sides.iter().map(|s| s.plane).collect());
+                }
+                continue;
             }
             let kind = brush_kind(b.sides.iter().map(|s| s.texture.as_str()));
             let contents = match kind {
@@ -234,7 +257,7 @@ pub(crate) fn load_map(
                         world.push(CsgBrush { brush, surfaces: side_surfaces, model: 0, hides: false });
                     }
                 }
-                EntityRole::Submodel | EntityRole::Point => {
+                EntityRole::Submodel | EntityRole::Point | EntityRole::VisCluster => {
                     let m = submodels.len();
                     if let Some(list) = submodels.last_mut() {
                         list.push(CsgBrush { brush, surfaces: side_surfaces, model: m as u32, hides: true });
@@ -276,6 +299,7 @@ pub(crate) fn load_map(
         textures,
         surfaces,
         stats,
+        visclusters,
         fill: true,
     })
 }

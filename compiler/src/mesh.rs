@@ -148,6 +148,7 @@ pub(crate) fn prepare(
         textures: vec!["mesh".to_string()],
         surfaces: vec![Surface { texture: 0, vectors: [[0.0; 4]; 2] }],
         stats,
+        visclusters: Vec::new(),
         fill: false,
     };
     Ok((prep, MeshTree { tree, volume: volume_box, world, cover }))

@@ -24,6 +24,8 @@ pub(crate) struct Prepared {
     /// What faces are drawn with; [`csg::CsgFace::surface`] indexes it.
     pub surfaces: Vec<csg::Surface>,
     pub stats: Stats,
+    /// The `func_viscluster` entities, in map order.
+    pub visclusters: Vec<crate::viscluster::VisCluster>,
     /// Fill unreachable space (maps) or keep every non-solid leaf (meshes, no entities).
     pub fill: bool,
 }

@@ -51,6 +51,8 @@ pub struct Stats {
     /// Triangle-against-portal tests of the check that a mesh's solid cells are enclosed (0 for
     /// a map): the work of that check, which grows near-linearly with the triangles.
     pub cover_tests: u64,
+    /// Per `func_viscluster` entity, in map order: its line and the vis leaves it merged.
+    pub visclusters: Vec<crate::viscluster::VisClusterStat>,
     /// Phase times in order.
     pub phases: Vec<PhaseTime>,
     /// Things worth knowing that did not stop the compile.

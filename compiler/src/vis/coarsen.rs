@@ -177,7 +177,7 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 }
 
 /// The portal file over merged clusters `new_id` (of `groups`).
-fn build(prt: &PortalFile, new_id: &[u32], groups: u32) -> PortalFile {
+pub(crate) fn build(prt: &PortalFile, new_id: &[u32], groups: u32) -> PortalFile {
     let portals = prt
         .portals
         .iter()

@@ -36,3 +36,5 @@ mod vis_q3;
 mod vis_real;
 mod vis_shapes;
 mod vis_shards;
+mod vis_viscluster;
+mod viscluster;

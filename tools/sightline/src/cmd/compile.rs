@@ -174,6 +174,9 @@ fn report(args: &Args, c: &Compiled, out: &Path, prt: Option<&Path>, pts: &Path)
         c.prt.format,
         s.filled_leaves
     );
+    for v in &s.visclusters {
+        println!("  func_viscluster at line {}: {} vis leaves in one cluster", v.line, v.leaves);
+    }
     if let Some(v) = &c.vis {
         println!(
             "  vis: average {:.1} visible clusters ({:.1} %), max {}, {} bytes of PVS",

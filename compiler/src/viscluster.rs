@@ -1,0 +1,177 @@
+//! `func_viscluster`: a brush entity whose volume is one cluster for vis, so the flow treats an
+//! open area as a single cell (far less work on big open maps, at the price of a looser PVS).
+//!
+//! # Conventions
+//! - Its brushes are not geometry: they build no tree, seal nothing, block nothing and are not in
+//!   the level (like a trigger's); a map with them has the same solid world, the same outside
+//!   fill and the same leak result as without them. The entity itself is not written to the
+//!   level's entity text (the compiler consumes it, as `func_detail`).
+//! - A brush is the intersection of the back half spaces of its sides' planes (the `.map`'s
+//!   planes face out of the brush), taken as written: no side is dropped, a brush whose planes do
+//!   not close stays an unbounded convex region.
+//! - **Inside**: a non-solid world leaf (after the outside fill) is inside an entity when the
+//!   centre of the leaf's bounding box lies on or behind every plane of one of the entity's
+//!   brushes, within [`ON_EPSILON`]. The box centre is a single point for any leaf, slanted or
+//!   not (for a slanted leaf it may lie just outside the leaf itself, which only matters near the
+//!   brush's faces); a leaf in solid is never inside.
+//! - A leaf inside several entities goes to the first of them in map order.
+//! - Each entity becomes one cluster: the leaves inside it, and every leaf sharing a cluster with
+//!   one of them (a `func_detail` subtree is one cluster and stays whole, so it joins the entity
+//!   too). Clusters are then numbered by first vis leaf as ever, and portals whose two sides fall
+//!   in one cluster leave the `.prt`.
+//!
+//! # Why the PVS stays conservative
+//! This is the merge `--coarsen` makes (see `vis::coarsen`), chosen by the mapper instead of by a
+//! grid: a sight line crosses the portals that remain, consecutive ones sharing a merged cluster,
+//! and every constraint vis puts on that shorter chain it put on the longer one before; so a
+//! merged cluster sees what any of its leaves saw, and is seen by whatever saw any of them.
+
+use glam::DVec3;
+use sightline_formats::Contents;
+use sightline_formats::geom::{ON_EPSILON, Plane};
+
+use crate::bsp::{Tree, TreeNode};
+
+/// The class name.
+pub(crate) const CLASSNAME: &str = "func_viscluster";
+
+/// One `func_viscluster` entity as loaded.
+#[derive(Debug, Clone)]
+pub(crate) struct VisCluster {
+    /// 1-based line of the entity in the map.
+    pub line: u32,
+    /// Each brush's side planes, facing out.
+    pub brushes: Vec<Vec<Plane>>,
+}
+
+impl VisCluster {
+    /// `p` lies inside one of the brushes (on or behind every plane of it).
+    fn contains(&self, p: DVec3) -> bool {
+        self.brushes.iter().any(|b| b.iter().all(|pl| pl.distance(p) <= ON_EPSILON))
+    }
+}
+
+/// What one `func_viscluster` merged, for the report.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct VisClusterStat {
+    /// 1-based line of the entity in the map.
+    pub line: u32,
+    /// Vis leaves in its cluster.
+    pub leaves: usize,
+}
+
+/// For every index of `tree`, the entity (an index into `clusters`) whose volume holds it: only
+/// leaves whose `contents` are not solid, by the rule in the module docs. Empty when there are
+/// no entities (nothing changes).
+pub(crate) fn leaf_groups(tree: &Tree, contents: &[Contents], clusters: &[VisCluster]) -> Vec<Option<u32>> {
+    if clusters.is_empty() {
+        return Vec::new();
+    }
+    tree.nodes
+        .iter()
+        .enumerate()
+        .map(|(i, n)| match n {
+            TreeNode::Leaf { bounds, .. } if contents.get(i).is_some_and(|c| *c != Contents::Solid) => {
+                let centre = (bounds.mins + bounds.maxs) * 0.5;
+                clusters.iter().position(|c| c.contains(centre)).map(|g| g as u32)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// Give every tree index whose cluster key holds a leaf of an entity (`groups`, from
+/// [`leaf_groups`]) the key `keys.len() + entity` instead; the lowest entity wins when one key
+/// holds leaves of several. `keys` are per tree index, as `emit` numbers clusters.
+pub(crate) fn merge_keys(keys: &mut [u32], groups: &[Option<u32>]) {
+    if groups.is_empty() {
+        return;
+    }
+    let base = keys.len() as u32;
+    let mut target: Vec<Option<u32>> = vec![None; keys.len()];
+    for (t, g) in groups.iter().enumerate() {
+        if let (Some(g), Some(&k)) = (g, keys.get(t))
+            && let Some(slot) = target.get_mut(k as usize)
+        {
+            *slot = Some(slot.map_or(*g, |o| o.min(*g)));
+        }
+    }
+    for k in keys.iter_mut() {
+        if let Some(Some(g)) = target.get(*k as usize) {
+            *k = base + g;
+        }
+    }
+}
+
+/// The merge `func_viscluster` entities ask of a Quake 1 or Half-Life `.bsp` vised from its
+/// `.prt` (see [`bsp_merge`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct BspMerge {
+    /// Per cluster of the portal file, its merged cluster (numbered by lowest input cluster).
+    pub new_id: Vec<u32>,
+    /// Merged clusters.
+    pub groups: u32,
+    /// Per entity with a brush model, in entity order: the vis leaves it merged.
+    pub leaves: Vec<usize>,
+}
+
+/// The merge for `bsp`'s `func_viscluster` entities, `None` when it has none with a brush model
+/// (`"model" "*N"`, `N ≥ 1`, a model the file has) or its entity text does not parse. A compiled
+/// `.bsp` keeps no brush planes, so **inside** here is: the centre of the leaf's stored bounds
+/// lies within the model's stored bounds (its box, which holds its brushes: at worst a few more
+/// leaves merge, which stays conservative). Vis leaf `j` of `prt` is BSP leaf `j + 1`; a leaf the
+/// `.bsp` lacks or whose bounds are not finite stays as it is. A cluster holding leaves of several
+/// entities joins the first in entity order; every other cluster stays alone.
+pub(crate) fn bsp_merge(
+    bsp: &sightline_formats::bsp::Bsp,
+    prt: &sightline_formats::prt::PortalFile,
+) -> Option<BspMerge> {
+    let entities = sightline_formats::entities::parse(&bsp.entities).ok()?;
+    let boxes: Vec<(DVec3, DVec3)> = entities
+        .iter()
+        .filter(|e| e.classname() == CLASSNAME)
+        .filter_map(|e| e.model().filter(|&m| m >= 1))
+        .filter_map(|m| bsp.models.get(m as usize))
+        .map(|m| (DVec3::from(m.mins.map(f64::from)), DVec3::from(m.maxs.map(f64::from))))
+        .collect();
+    if boxes.is_empty() {
+        return None;
+    }
+    let nc = prt.num_clusters as usize;
+    let mut group: Vec<Option<usize>> = vec![None; nc];
+    for (j, &c) in prt.leaf_clusters.iter().enumerate() {
+        let Some(l) = bsp.leaves.get(j + 1) else { continue };
+        let centre = (DVec3::from(l.mins.map(f64::from)) + DVec3::from(l.maxs.map(f64::from))) * 0.5;
+        if !centre.is_finite() {
+            continue;
+        }
+        let g = boxes.iter().position(|(lo, hi)| centre.cmpge(*lo).all() && centre.cmple(*hi).all());
+        if let (Some(g), Some(slot)) = (g, group.get_mut(c as usize)) {
+            *slot = Some(slot.map_or(g, |o| o.min(g)));
+        }
+    }
+    let mut first: Vec<Option<u32>> = vec![None; boxes.len()];
+    let mut new_id = Vec::with_capacity(nc);
+    let mut groups = 0u32;
+    for g in &group {
+        let id = match g.map(|g| &mut first[g]) {
+            Some(Some(id)) => *id,
+            slot => {
+                let id = groups;
+                groups += 1;
+                if let Some(s) = slot {
+                    *s = Some(id);
+                }
+                id
+            }
+        };
+        new_id.push(id);
+    }
+    let mut leaves = vec![0usize; boxes.len()];
+    for &c in &prt.leaf_clusters {
+        if let Some(Some(g)) = group.get(c as usize) {
+            leaves[*g] += 1;
+        }
+    }
+    Some(BspMerge { new_id, groups, leaves })
+}
