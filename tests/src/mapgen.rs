@@ -295,7 +295,13 @@ fn carve(airs: &[IBox]) -> Vec<IBox> {
 
 /// One box brush; each side's points give a plane facing out of the box.
 pub(crate) fn write_box(out: &mut String, b: &IBox, texture: &str) {
-    let ([x0, y0, z0], [x1, y1, z1]) = (b.lo, b.hi);
+    write_box_at(out, b.lo, b.hi, texture);
+}
+
+/// One box brush from `lo` to `hi` (any coordinates that print as `.map` numbers); each side's
+/// points give a plane facing out of the box.
+pub fn write_box_at<T: Copy + std::fmt::Display>(out: &mut String, lo: [T; 3], hi: [T; 3], texture: &str) {
+    let ([x0, y0, z0], [x1, y1, z1]) = (lo, hi);
     let sides = [
         [[x0, y0, z0], [x0, y1, z0], [x0, y0, z1]],
         [[x1, y0, z0], [x1, y0, z1], [x1, y1, z0]],

@@ -19,24 +19,8 @@ const PARAMS: [MapGenParams; 2] = [
 
 /// A brush over the box `lo..hi`, its planes facing out.
 fn brush(lo: [f64; 3], hi: [f64; 3], texture: &str) -> String {
-    let [x0, y0, z0] = lo;
-    let [x1, y1, z1] = hi;
-    let sides = [
-        [[x0, y0, z0], [x0, y1, z0], [x0, y0, z1]],
-        [[x1, y0, z0], [x1, y0, z1], [x1, y1, z0]],
-        [[x0, y0, z0], [x0, y0, z1], [x1, y0, z0]],
-        [[x0, y1, z0], [x1, y1, z0], [x0, y1, z1]],
-        [[x0, y0, z0], [x1, y0, z0], [x0, y1, z0]],
-        [[x0, y0, z1], [x0, y1, z1], [x1, y0, z1]],
-    ];
-    let mut out = String::from("{\n");
-    for [p, q, r] in sides {
-        out.push_str(&format!(
-            "( {} {} {} ) ( {} {} {} ) ( {} {} {} ) {texture} 0 0 0 1 1\n",
-            p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2]
-        ));
-    }
-    out.push_str("}\n");
+    let mut out = String::new();
+    sightline_tests::mapgen::write_box_at(&mut out, lo, hi, texture);
     out
 }
 
