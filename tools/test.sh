@@ -4,7 +4,7 @@
 #      members; a few minutes cold on 2 cores), then a map's vis across a local HyperQueue cluster
 #      (tools/distributed/ci_hq.sh; HyperQueue is installed in target/hq-venv);
 #   2. the Bevy plugin with its viewer: `cargo test -p sightline-bevy --features viewer --profile
-#      test-opt` (Bevy itself: about 25 minutes cold on 2 cores, once), then the headless walk and
+#      test-opt` (Bevy itself: about 18 minutes cold on 2 cores, once), then the headless walk and
 #      the viewer's stills under a virtual display (tools/viewer-shots.sh).
 # Usage: tools/test.sh [--no-bevy]
 set -euo pipefail
