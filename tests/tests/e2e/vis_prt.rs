@@ -55,3 +55,29 @@ fn truncated_and_corrupted_files_fail_with_a_location() {
     assert!(matches!(e.kind, prt::PrtErrorKind::NonFinite(_)), "{e}");
     assert_eq!((e.line, e.col), (5, 18), "{e}");
 }
+
+/// With stderr not a terminal (an editor's compile console, a log), a long vis prints plain
+/// progress lines, a line per tenth with the time elapsed and left, and a last line per phase.
+#[test]
+fn a_long_vis_prints_plain_progress_lines_when_stderr_is_not_a_terminal() {
+    let Some(src) = sightline_tests::shared_map("ericw/e1m1.prt") else { return };
+    let dir = std::env::temp_dir().join(format!("sightline-plain-progress-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let prt = dir.join("e1m1.prt");
+    std::fs::copy(&src, &prt).unwrap();
+    // One wave and one thread: a flow of several seconds, past the lines' quiet start.
+    let out = std::process::Command::new(sightline_tests::sightline_binary())
+        .args(["vis", "--threads", "1", "--waves", "1"])
+        .arg(&prt)
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("vis flow: ")).collect();
+    assert!(lines.iter().any(|l| l.contains("% (") && l.contains("elapsed, about")), "{stderr}");
+    assert!(lines.last().is_some_and(|l| l.starts_with("vis flow: done (")), "{stderr}");
+    let percents: Vec<u32> =
+        lines.iter().filter_map(|l| l.strip_prefix("vis flow: ")?.split('%').next()?.parse().ok()).collect();
+    assert!(percents.windows(2).all(|w| w[0] < w[1]), "each tenth once, in order: {percents:?}");
+}
