@@ -25,6 +25,7 @@ mod runtime_ffi;
 mod runtime_hostile;
 mod runtime_real_maps;
 mod tb_layers;
+mod tb_profile;
 mod trace_gate;
 mod unusable_bounds;
 mod validate_compiled;
