@@ -1,0 +1,49 @@
+//! What the real binary ([`sightline_tests::sightline_binary`]) says when a mapper gives it the
+//! wrong file or a file without what a command needs: the message names the file and the command
+//! or option that does what was meant.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sightline-messages-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn sightline(args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(sightline_tests::sightline_binary()).args(args).output().expect("run sightline")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn compiling_a_compiled_map_of_any_family_suggests_vis() {
+    let dir = temp_dir("compiled");
+    // Each family's first bytes, then zeros: the family is known from them alone.
+    let mut heads: Vec<(Vec<u8>, &str)> =
+        sightline_formats::bsp::BspVersion::ALL.into_iter().map(|v| (v.magic().to_vec(), v.name())).collect();
+    heads.push((b"IBSP\x26\0\0\0".to_vec(), "Quake 2"));
+    heads.push((b"IBSP\x2e\0\0\0".to_vec(), "Quake 3"));
+    for (i, (head, named)) in heads.iter().enumerate() {
+        let path = dir.join(format!("level{i}.bsp"));
+        let mut bytes = head.clone();
+        bytes.resize(4096, 0);
+        std::fs::write(&path, &bytes).expect("write");
+        let o = sightline(&[
+            "compile".as_ref(),
+            path.as_os_str(),
+            "-o".as_ref(),
+            dir.join("out.slvl").as_os_str(),
+        ]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{named}: {err}");
+        let expected = format!("{} is a compiled map", path.display());
+        assert!(err.contains(&expected) && err.contains(named), "{named}: {err}");
+        assert!(err.contains(&format!("`sightline vis {}`", path.display())), "{named}: {err}");
+        assert!(!dir.join("out.slvl").exists(), "{named}: nothing written");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
