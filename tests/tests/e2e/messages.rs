@@ -47,3 +47,24 @@ fn compiling_a_compiled_map_of_any_family_suggests_vis() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_bsp_without_its_portal_file_suggests_portals_from_bsp() {
+    let Some(src) = sightline_tests::shared_map("ericw/e1m1.bsp") else { return };
+    let dir = temp_dir("noprt");
+    let path = dir.join("e1m1.bsp");
+    std::fs::copy(&src, &path).expect("copy");
+    for extra in [&[][..], &["--external-vis"][..]] {
+        let mut args: Vec<&std::ffi::OsStr> = vec!["vis".as_ref(), path.as_os_str()];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        let o = sightline(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains("e1m1.prt"), "{extra:?}: names the portal file looked for: {err}");
+        assert!(
+            err.contains(&format!("sightline vis --portals-from-bsp {}", path.display())),
+            "{extra:?}: suggests the rebuild: {err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
