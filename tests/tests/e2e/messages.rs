@@ -68,3 +68,25 @@ fn a_bsp_without_its_portal_file_suggests_portals_from_bsp() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_compile_report_says_what_the_filled_leaves_are() {
+    let dir = temp_dir("filled");
+    let out = dir.join("room.slvl");
+    let map = sightline_tests::bundled_maps().join("room.map");
+    let o = sightline(&[
+        "compile".as_ref(),
+        map.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--no-vis".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("  vis leaves"))
+        .unwrap_or_else(|| panic!("a filled count: {stdout}"));
+    assert!(line.contains("outside leaves filled solid "), "labelled: {line}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
