@@ -90,3 +90,15 @@ fn the_compile_report_says_what_the_filled_leaves_are() {
     assert!(line.contains("outside leaves filled solid "), "labelled: {line}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_missing_base_name_lists_the_paths_tried() {
+    let dir = temp_dir("missing");
+    let base = dir.join("e1m1");
+    let o = sightline(&["vis".as_ref(), base.as_os_str()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let listed = format!("looked for {} and {}.bsp", base.display(), base.display());
+    assert!(err.contains(&listed), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
