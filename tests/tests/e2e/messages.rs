@@ -102,3 +102,35 @@ fn a_missing_base_name_lists_the_paths_tried() {
     assert!(err.contains(&listed), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_view_counts_red_pixels_only_when_checked_against_the_pvs() {
+    let dir = temp_dir("render");
+    let level = dir.join("room.slvl");
+    let map = sightline_tests::bundled_maps().join("room.map");
+    let o = sightline(&["compile".as_ref(), map.as_os_str(), "-o".as_ref(), level.as_os_str()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let png = dir.join("view.png");
+    for pvs in [false, true] {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "render".as_ref(),
+            level.as_os_str(),
+            "--view".as_ref(),
+            "128,128,48".as_ref(),
+            "--size".as_ref(),
+            "32x24".as_ref(),
+            "-o".as_ref(),
+            png.as_os_str(),
+        ];
+        if pvs {
+            args.push("--pvs".as_ref());
+        }
+        let o = sightline(&args);
+        assert_eq!(o.status.code(), Some(0), "--pvs {pvs}: {}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(stdout.contains("leaves shown"), "--pvs {pvs}: {stdout}");
+        assert_eq!(stdout.contains("red pixels"), pvs, "--pvs {pvs}: {stdout}");
+        assert!(!stdout.contains("unchecked"), "--pvs {pvs}: {stdout}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
