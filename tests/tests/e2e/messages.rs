@@ -134,3 +134,37 @@ fn a_view_counts_red_pixels_only_when_checked_against_the_pvs() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_pvs_matrix_of_another_size_than_asked_says_why() {
+    let dir = temp_dir("matrix");
+    let level = dir.join("room.slvl");
+    let map = sightline_tests::bundled_maps().join("room.map");
+    let o = sightline(&["compile".as_ref(), map.as_os_str(), "-o".as_ref(), level.as_os_str()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let png = dir.join("matrix.png");
+    let mut noted = 0;
+    for size in ["512x512", "500x500", "7x7", "640x480", "1x1"] {
+        let o = sightline(&[
+            "render".as_ref(),
+            level.as_os_str(),
+            "--pvs-matrix".as_ref(),
+            "--size".as_ref(),
+            size.as_ref(),
+            "-o".as_ref(),
+            png.as_os_str(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{size}: {}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        let wrote = stdout.lines().find(|l| l.starts_with("wrote ")).expect("a wrote line");
+        let differs = !wrote.ends_with(&format!("({size})"));
+        let note = stdout.lines().find(|l| l.starts_with("note: the PVS matrix"));
+        assert_eq!(note.is_some(), differs, "{size}: {stdout}");
+        if let Some(note) = note {
+            assert!(note.contains(&format!("not the {size} asked")) && note.contains("clusters"), "{note}");
+            noted += 1;
+        }
+    }
+    assert!(noted > 0, "640x480 is never square");
+    let _ = std::fs::remove_dir_all(&dir);
+}

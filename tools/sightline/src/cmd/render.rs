@@ -212,7 +212,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             None => None,
         };
-        matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE))
+        let image = matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE));
+        if (image.width, image.height) != (w, h) {
+            println!(
+                "note: the PVS matrix is {0}x{0}, not the {w}x{h} asked: it is square, at most {MATRIX_SIDE} a side, \
+                 and gives each of the {1} clusters a whole number of pixels (or each pixel a whole number of clusters)",
+                image.width,
+                pvs.len()
+            );
+        }
+        image
     } else {
         let leak = match &args.leak {
             Some(p) if p.is_empty() => compiled_leak.with_context(|| {
