@@ -168,3 +168,21 @@ fn a_pvs_matrix_of_another_size_than_asked_says_why() {
     assert!(noted > 0, "640x480 is never square");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn validate_ends_with_a_pass_or_fail_line_matching_its_exit() {
+    let dir = temp_dir("validate");
+    let level = dir.join("room.slvl");
+    let map = sightline_tests::bundled_maps().join("room.map");
+    let o = sightline(&["compile".as_ref(), map.as_os_str(), "-o".as_ref(), level.as_os_str()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = sightline(&["validate".as_ref(), level.as_os_str(), "--rays".as_ref(), "20000".as_ref()]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let last = stdout.lines().last().unwrap_or_default();
+    match o.status.code() {
+        Some(0) => assert!(last.starts_with("PASS: ") && last.contains(" rays)"), "{stdout}"),
+        Some(1) => assert!(last.starts_with("FAIL: ") && last.contains(" misses"), "{stdout}"),
+        _ => panic!("{}", stderr(&o)),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
