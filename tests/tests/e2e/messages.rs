@@ -186,3 +186,16 @@ fn validate_ends_with_a_pass_or_fail_line_matching_its_exit() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_portal_backend_says_why_it_cannot_run() {
+    let Some(src) = sightline_tests::shared_map("ericw/e1m1.bsp") else { return };
+    let dir = temp_dir("portal");
+    let path = dir.join("e1m1.bsp");
+    std::fs::copy(&src, &path).expect("copy");
+    let o = sightline(&["bench".as_ref(), path.as_os_str(), "--backend".as_ref(), "portal".as_ref()]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no portals") && err.contains(".prt beside it"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
