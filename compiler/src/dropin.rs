@@ -238,7 +238,13 @@ pub(crate) fn portals_beside(
     let tried = sightline_formats::prt::beside_bsp(path);
     // The first that exists: one that is not a regular file is refused by name, not passed over.
     let Some(prt_path) = tried.iter().find(|p| p.exists()) else {
-        return Err(DropInError::refused(path, format!("no portal file beside it (tried {tried:?}{hint})")));
+        return Err(DropInError::refused(
+            path,
+            format!(
+                "no portal file beside it (tried {tried:?}{hint}); or rebuild the portals from the BSP's own tree with `sightline vis --portals-from-bsp {}`",
+                path.display()
+            ),
+        ));
     };
     let bytes = read_input(prt_path)?;
     let prt = sightline_formats::prt::read_bytes(&bytes, &prt_path.display().to_string())?;

@@ -36,6 +36,15 @@ pub enum SourceError {
     /// The `.obj` could not be loaded.
     #[error(transparent)]
     Obj(#[from] sightline_formats::obj::ObjError),
+    /// The file is a compiled map ([`sightline_formats::bsp::Game::sniff`]), not a source: the
+    /// message suggests `sightline vis`, which is what a compiled map is given to.
+    #[error("{file} is a compiled map ({game}), not a .map; did you mean `sightline vis {file}`?")]
+    CompiledMap {
+        /// The file.
+        file: String,
+        /// Its game and format, e.g. `Quake BSP29`.
+        game: String,
+    },
 }
 
 impl Source {
@@ -52,6 +61,13 @@ impl Source {
         if sightline_formats::FileKind::from_extension(path) == Some(sightline_formats::FileKind::Obj) {
             let mesh = mesh::Mesh::from(&sightline_formats::obj::load_from_bytes(&bytes, &file)?);
             return Ok(Source::Mesh { mesh, file });
+        }
+        if let Some(game) = sightline_formats::bsp::Game::sniff(&bytes) {
+            let game = match game {
+                sightline_formats::bsp::Game::Quake(version) => format!("{} {}", game.name(), version.name()),
+                _ => game.name().to_string(),
+            };
+            return Err(SourceError::CompiledMap { file, game });
         }
         let map = sightline_formats::map::parse_bytes(&bytes, &file)?;
         Ok(Source::Map { map, file })

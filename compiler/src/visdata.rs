@@ -74,9 +74,10 @@ pub enum VisdataError {
     },
     /// No `.prt` beside a `.bsp` ([`prt::beside_bsp`] lists where it is looked for).
     #[error(
-        "no portal file beside {}: looked for {}; vis needs the portal file your BSP compiler writes beside the .bsp (none is written when the map leaks)",
+        "no portal file beside {}: looked for {}; vis needs the portal file your BSP compiler writes beside the .bsp (none is written when the map leaks), or rebuild the portals from the BSP's own tree with `sightline vis --portals-from-bsp {}`",
         bsp.display(),
-        tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and ")
+        tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "),
+        bsp.display()
     )]
     PrtMissing {
         /// The `.bsp`.

@@ -15,6 +15,7 @@ mod info_cli;
 mod map_parse;
 mod mapgen;
 mod mesh_validate;
+mod messages;
 mod raycast_backend;
 mod render_pixels;
 mod revis;

@@ -4,18 +4,27 @@
 
 use std::ffi::OsString;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use crate::cmd;
 use crate::outcome::Outcome;
 
-/// Sightline compiles Quake-style levels and answers "what can be seen from here".
+/// Sightline compiles Quake-style levels and answers "what can be seen from here". The summary
+/// that starts `--help` names the subcommands, taken from them ([`command`]).
 #[derive(Debug, Parser)]
-#[command(name = "sightline", version, about, propagate_version = true)]
+#[command(name = "sightline", version, propagate_version = true)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// The command line, its one-line summary naming every subcommand in their order (built from the
+/// subcommands, so no list is kept by hand).
+pub fn command() -> clap::Command {
+    let cmd = Cli::command();
+    let names: Vec<String> = cmd.get_subcommands().map(|c| c.get_name().to_string()).collect();
+    cmd.about(format!("The sightline command line: {}.", names.join(", "))).long_about(None)
 }
 
 /// The subcommands. Each one's arguments are built only when it is the one run (or its help is
@@ -59,7 +68,8 @@ pub fn main() -> i32 {
             return 2;
         }
     };
-    let cli = Cli::parse_from(join_negative_values(args));
+    let matches = command().get_matches_from(join_negative_values(args));
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // Commands that stop on request take Ctrl-C and SIGTERM from the start (the reading of a large
     // input included), not only once their long work begins.
     if matches!(

@@ -1402,6 +1402,11 @@ fn every_subcommand_prints_its_help() {
     for known in ["compile", "vis", "portals", "validate", "info", "render", "bench", "gvs"] {
         assert!(subcommands.iter().any(|s| s == known), "`{known}` missing from --help:\n{text}");
     }
+    // The first line, the summary, names every subcommand the list shows.
+    let first = text.lines().next().unwrap_or_default();
+    for sub in &subcommands {
+        assert!(first.contains(sub.as_str()), "`{sub}` missing from the first line of --help:\n{text}");
+    }
     for sub in &subcommands {
         let o = run(&[sub, "--help"]);
         assert_eq!(code(&o), 0, "{sub} --help: {}", stderr(&o));

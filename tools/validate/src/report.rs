@@ -193,9 +193,19 @@ impl Report {
         if let Some(d) = self.disagreement {
             let _ = writeln!(
                 s,
-                "oracles disagree on {} pairs (tree only) and {} pairs (mesh only)",
+                "oracles disagree on {} pairs (tree only) and {} pairs (mesh only): the BSP-tree oracle and the \
+                 triangle-mesh oracle trace the same rays through different geometry, so near edges one finds a \
+                 pair the other does not; a disagreement is not a miss (only a pair the PVS hides is)",
                 d.pairs_only_tree, d.pairs_only_mesh
             );
+        }
+        let rays: u64 = self.oracles.iter().map(|o| o.rays).sum();
+        let misses = self.misses();
+        if misses == 0 {
+            let _ = writeln!(s, "PASS: no sightline reached a leaf the PVS hides ({rays} rays)");
+        } else {
+            let _ =
+                writeln!(s, "FAIL: {misses} misses: sightlines reached leaves the PVS hides ({rays} rays)");
         }
         s
     }

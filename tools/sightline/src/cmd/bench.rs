@@ -191,7 +191,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 /// Why a backend does not support a level.
 fn why_not(name: &str) -> &'static str {
     match name {
-        "portal" => "the level has no portals",
+        "portal" => {
+            "the level has no portals (a .bsp takes them from the .prt beside it; a .slvl has them when compiled \
+             from a map that does not leak)"
+        }
         "gvs" => "the level has no GVS cells (write them with `sightline gvs LEVEL.slvl -o OUT.slvl`)",
         _ => "not supported by this level",
     }

@@ -166,7 +166,7 @@ fn report(args: &Args, c: &Compiled, out: &Path, prt: Option<&Path>, pts: &Path)
         s.brushes, s.world_brushes, s.detail_brushes, s.submodels, s.faces, s.planes, s.nodes, s.leaves
     );
     println!(
-        "  vis leaves {}, clusters {}, portals {} ({} in the {:?} file), filled {}",
+        "  vis leaves {}, clusters {}, portals {} ({} in the {:?} file), outside leaves filled solid {}",
         s.vis_leaves,
         s.clusters,
         s.portals,

@@ -178,12 +178,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let image = if let Some(eye) = eye {
         let camera = Camera { eye, yaw, pitch, fov: args.fov, width: w, height: h };
         let v = render_view(&tree, &camera, args.pvs.then_some(&pvs))?;
+        // Red pixels are counted only against the PVS (--pvs); without it there is nothing to say.
+        let red = if args.pvs { format!(", {} red pixels", v.red_pixels) } else { String::new() };
         println!(
-            "eye leaf {} (cluster {}), {} leaves shown, {} red pixels",
+            "eye leaf {} (cluster {}), {} leaves shown{red}",
             v.eye_leaf,
             v.eye_cluster,
-            v.leaves_shown.len(),
-            if args.pvs { v.red_pixels.to_string() } else { "unchecked".into() }
+            v.leaves_shown.len()
         );
         if v.red_pixels > 0 {
             outcome = Outcome::Finding;
@@ -211,7 +212,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             None => None,
         };
-        matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE))
+        let image = matrix::render_matrix(&pvs, sampled.as_ref(), w.max(h).min(MATRIX_SIDE));
+        if (image.width, image.height) != (w, h) {
+            println!(
+                "note: the PVS matrix is {0}x{0}, not the {w}x{h} asked: it is square, at most {MATRIX_SIDE} a side, \
+                 and gives each of the {1} clusters a whole number of pixels (or each pixel a whole number of clusters)",
+                image.width,
+                pvs.len()
+            );
+        }
+        image
     } else {
         let leak = match &args.leak {
             Some(p) if p.is_empty() => compiled_leak.with_context(|| {

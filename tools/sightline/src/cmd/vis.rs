@@ -147,17 +147,22 @@ fn parse_distance(s: &str) -> Result<f64, String> {
 /// ending in `.bsp` or `.prt`, and `NAME.bsp` is a file; `e1m1` or `e1m1.final`), else the input
 /// itself.
 pub fn resolve_input(input: &Path) -> PathBuf {
+    let tried = input_candidates(input);
+    tried.iter().find(|p| p.is_file()).unwrap_or(&tried[0]).clone()
+}
+
+/// The files [`resolve_input`] looks at, in order: `input` itself, then `input.bsp` when `input`
+/// is a base name (not a file itself, not ending in `.bsp` or `.prt`).
+fn input_candidates(input: &Path) -> Vec<PathBuf> {
     let named =
         input.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsp") || e.eq_ignore_ascii_case("prt"));
+    let mut tried = vec![input.to_path_buf()];
     if !named && !input.is_file() {
         let mut bsp = input.as_os_str().to_owned();
         bsp.push(".bsp");
-        let bsp = PathBuf::from(bsp);
-        if bsp.is_file() {
-            return bsp;
-        }
+        tried.push(PathBuf::from(bsp));
     }
-    input.to_path_buf()
+    tried
 }
 
 /// Run the command.
@@ -190,6 +195,11 @@ pub(crate) fn drop_in_options(args: &Args) -> DropInOptions {
 pub(crate) fn run_with(args: &Args, merge: Option<MergeSpec>) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let path = resolve_input(&args.input);
+    let tried = input_candidates(&args.input);
+    if tried.len() > 1 && !path.exists() {
+        let tried: Vec<String> = tried.iter().map(|p| p.display().to_string()).collect();
+        bail!("{}: no such map; looked for {}", args.input.display(), tried.join(" and "));
+    }
     check_flags(args, &path)?;
     let mut opts = drop_in_options(args);
     if merge.is_some() && path.is_dir() {
