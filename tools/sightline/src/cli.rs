@@ -23,7 +23,9 @@ pub struct Cli {
 /// subcommands, so no list is kept by hand).
 pub fn command() -> clap::Command {
     let cmd = Cli::command();
-    let names: Vec<String> = cmd.get_subcommands().map(|c| c.get_name().to_string()).collect();
+    // Hidden ones (`vis-shards`, reached as `sightline vis plan|shard|merge|status`) are not named.
+    let names: Vec<String> =
+        cmd.get_subcommands().filter(|c| !c.is_hide_set()).map(|c| c.get_name().to_string()).collect();
     cmd.about(format!("The sightline command line: {}.", names.join(", "))).long_about(None)
 }
 
