@@ -1,6 +1,7 @@
 //! Pictures of levels: first-person views ([`view`]), plans with PVS, frustum, portals and leak
 //! paths ([`plan`]), and PVS matrices ([`matrix`]), written as PNG ([`image`]).
 
+pub mod font;
 pub mod image;
 pub mod matrix;
 pub mod plan;

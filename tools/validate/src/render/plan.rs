@@ -5,12 +5,15 @@
 //! the most telling leaf found there, in this order: eye leaf (yellow), frustum-visible PVS leaf
 //! (cyan), PVS leaf (green), other open leaf (grey), sky (dark blue), solid (near black). Leaves
 //! carry a faint tint (1/8) of their own colour so neighbours can be told apart. North (+y) is up.
+//! Below the plan, a band holds a legend of the categories drawn (and portals, leak path) and a
+//! scale bar: a power-of-two length in map units ([`legend`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
 use sightline_formats::Contents;
 
 use super::RenderError;
+use super::font::{GLYPH_H, draw_text, text_width};
 use super::image::{Image, Rgb, leaf_colour};
 use super::view::Camera;
 use crate::bsp::BspTree;
@@ -38,6 +41,12 @@ pub const LEAK: Rgb = [255, 140, 0];
 pub const LEAK_START: Rgb = [0, 255, 120];
 /// Where the leak ends (the void).
 pub const LEAK_END: Rgb = [255, 0, 255];
+/// The legend band's background.
+pub const BAND: Rgb = [8, 8, 12];
+/// The legend's text and scale bar.
+pub const LABEL: Rgb = [250, 250, 250];
+/// The outline of the legend's swatches.
+pub const OUTLINE: Rgb = [140, 140, 140];
 
 /// What to draw.
 #[derive(Debug, Clone, Default)]
@@ -165,7 +174,7 @@ pub fn render_plan(
         })
         .collect();
 
-    let rows: Vec<Vec<Rgb>> = (0..height)
+    let rows: Vec<Vec<(Rgb, Kind)>> = (0..height)
         .into_par_iter()
         .map(|py| {
             (0..opts.width)
@@ -180,15 +189,17 @@ pub fn render_plan(
                             (best, leaf) = (kinds[l], l);
                         }
                     }
-                    colour(best, leaf as u32)
+                    (colour(best, leaf as u32), best)
                 })
                 .collect()
         })
         .collect();
     let mut image = Image::new(opts.width, height, SOLID);
+    let mut drawn = [false; 6];
     for (y, row) in rows.iter().enumerate() {
-        for (x, &c) in row.iter().enumerate() {
+        for (x, &(c, kind)) in row.iter().enumerate() {
             image.put(x as i64, y as i64, c);
+            drawn[kind as usize] = true;
         }
     }
     for w in &opts.portals {
@@ -221,10 +232,83 @@ pub fn render_plan(
             image.line((ex, ey), to_px(tip), [0, 0, 0], 2);
         }
     }
+    let mut entries: Vec<(Rgb, &str)> = [
+        (Kind::Eye, EYE, "eye"),
+        (Kind::Frustum, FRUSTUM, "in view"),
+        (Kind::Pvs, PVS, "pvs"),
+        (Kind::Open, OPEN, "open"),
+        (Kind::Sky, SKY, "sky"),
+        (Kind::Solid, SOLID, "solid"),
+    ]
+    .into_iter()
+    .filter(|(k, _, _)| drawn[*k as usize])
+    .map(|(_, c, t)| (c, t))
+    .collect();
+    if !opts.portals.is_empty() {
+        entries.push((PORTAL, "portal"));
+    }
+    if !opts.leak.is_empty() {
+        entries.push((LEAK, "leak"));
+    }
+    let image = legend(image, &entries, scale);
     let pick = |want: &[Kind]| {
         kinds.iter().enumerate().filter(|(_, k)| want.contains(k)).map(|(i, _)| i as u32).collect::<Vec<_>>()
     };
     Ok(Plan { image, pvs_leaves: pick(&[Kind::Pvs, Kind::Frustum]), frustum_leaves: pick(&[Kind::Frustum]) })
+}
+
+/// Font pixels per legend pixel.
+const LEGEND_SCALE: i64 = 2;
+
+/// `image` with a band below it: a swatch and a name per entry, flowing into rows, then a scale
+/// bar whose length is the largest power of two of map units (8 to 65536) that fits in a third
+/// of the width, labelled with it; `scale` is pixels per map unit.
+fn legend(image: Image, entries: &[(Rgb, &str)], scale: f64) -> Image {
+    let s = LEGEND_SCALE;
+    let (w, pad, row_h) = (i64::from(image.width), 6, GLYPH_H * s + 6);
+    let swatch = GLYPH_H * s;
+    // Lay the entries out in rows; the scale bar takes the row after them.
+    let mut at = Vec::with_capacity(entries.len());
+    let (mut x, mut y) = (pad, 0);
+    for (_, text) in entries {
+        let item = swatch + s * 2 + text_width(text, s);
+        if x > pad && x + item > w - pad {
+            (x, y) = (pad, y + row_h);
+        }
+        at.push((x, y));
+        x += item + s * 6;
+    }
+    let scale_row = if entries.is_empty() { 0 } else { y + row_h };
+    let band = scale_row + row_h + pad;
+    let top = i64::from(image.height) + pad;
+    let mut out = Image::new(image.width, image.height + band as u32, BAND);
+    out.pixels[..image.pixels.len()].copy_from_slice(&image.pixels);
+    for ((colour, text), (x, y)) in entries.iter().zip(at) {
+        for dy in 0..swatch {
+            for dx in 0..swatch {
+                out.put(x + dx, top + y + dy, *colour);
+            }
+        }
+        // An outline, so a dark swatch (solid, sky) still shows on the band.
+        let (x1, y0, y1) = (x + swatch - 1, top + y, top + y + swatch - 1);
+        for (a, b) in [((x, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x, y1)), ((x, y1), (x, y0))] {
+            out.line(a, b, OUTLINE, 1);
+        }
+        draw_text(&mut out, x + swatch + s * 2, top + y, text, LABEL, s);
+    }
+    let units = (3..=16)
+        .map(|p| 1u32 << p)
+        .take_while(|&u| f64::from(u) * scale <= w as f64 / 3.0)
+        .last()
+        .unwrap_or(8);
+    let len = (f64::from(units) * scale).round().max(1.0) as i64;
+    let y = top + scale_row + swatch / 2;
+    out.line((pad, y), (pad + len, y), LABEL, 2);
+    for end in [pad, pad + len] {
+        out.line((end, y - swatch / 2), (end, y + swatch / 2), LABEL, 1);
+    }
+    draw_text(&mut out, pad + len + s * 4, top + scale_row, &format!("{units} units"), LABEL, s);
+    out
 }
 
 /// The colour of a category, tinted 1/8 of the way towards the leaf's own colour.
