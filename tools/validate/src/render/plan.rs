@@ -6,7 +6,7 @@
 //! (cyan), PVS leaf (green), other open leaf (grey), sky (dark blue), solid (near black). Leaves
 //! carry a faint tint (1/8) of their own colour so neighbours can be told apart. North (+y) is up.
 //! Below the plan, a band holds a legend of the categories drawn (and portals, leak path) and a
-//! scale bar: a power-of-two length in map units ([`legend`]).
+//! scale bar: the largest power of two of map units (8 to 65536) that fits a third of the width.
 
 use glam::DVec3;
 use rayon::prelude::*;
