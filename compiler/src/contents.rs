@@ -125,13 +125,16 @@ pub(crate) enum EntityRole {
     VisCluster,
 }
 
+/// The class name of the clustering volume ([`EntityRole::VisCluster`], `crate::viscluster`).
+pub(crate) const VISCLUSTER_CLASSNAME: &str = "func_viscluster";
+
 /// The role of an entity by class name and whether it has brushes.
 pub(crate) fn entity_role(classname: &str, has_brushes: bool) -> EntityRole {
     match classname {
         "worldspawn" | "func_group" => EntityRole::World,
         "func_detail" | "func_detail_wall" | "func_detail_fence" => EntityRole::Detail,
         "func_detail_illusionary" => EntityRole::Illusionary,
-        crate::viscluster::CLASSNAME => EntityRole::VisCluster,
+        VISCLUSTER_CLASSNAME => EntityRole::VisCluster,
         _ if has_brushes => EntityRole::Submodel,
         _ => EntityRole::Point,
     }

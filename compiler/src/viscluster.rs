@@ -31,9 +31,7 @@ use sightline_formats::Contents;
 use sightline_formats::geom::{ON_EPSILON, Plane};
 
 use crate::bsp::{Tree, TreeNode};
-
-/// The class name.
-pub(crate) const CLASSNAME: &str = "func_viscluster";
+use crate::contents::VISCLUSTER_CLASSNAME;
 
 /// One `func_viscluster` entity as loaded.
 #[derive(Debug, Clone)]
@@ -129,7 +127,7 @@ pub(crate) fn bsp_merge(
     let entities = sightline_formats::entities::parse(&bsp.entities).ok()?;
     let boxes: Vec<(DVec3, DVec3)> = entities
         .iter()
-        .filter(|e| e.classname() == CLASSNAME)
+        .filter(|e| e.classname() == VISCLUSTER_CLASSNAME)
         .filter_map(|e| e.model().filter(|&m| m >= 1))
         .filter_map(|m| bsp.models.get(m as usize))
         .map(|m| (DVec3::from(m.mins.map(f64::from)), DVec3::from(m.maxs.map(f64::from))))

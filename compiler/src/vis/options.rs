@@ -48,7 +48,7 @@ pub struct VisOptions {
     /// ([`shard`](super::shard)), so this one-process run gives their merge, byte for byte.
     pub waves: Option<u32>,
     /// Take the flow rows from the shard files of a plan instead of flowing ([`shard`](super::shard)).
-    pub merge: Option<super::shard::MergeSpec>,
+    pub merge: Option<super::plan::MergeSpec>,
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
     pub(crate) panic_at: Option<usize>,

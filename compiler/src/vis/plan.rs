@@ -14,6 +14,8 @@
 //! on a tie), so expensive and cheap portals interleave and the shards' estimates stay close.
 //! A shard lists its portals in that order, its most expensive first.
 
+use std::path::{Path, PathBuf};
+
 use serde::Serialize;
 use sightline_formats::bits;
 
@@ -53,6 +55,63 @@ pub fn wave_size(n: usize, waves: u32) -> usize {
     n.div_ceil(waves.max(1) as usize).max(1)
 }
 
+/// The order portals are flowed in: increasing `mightsee` (the `n` rows of `might`, `words`
+/// words each), then portal number.
+pub(super) fn processing_order(might: &[u64], words: usize, n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
+    order
+}
+
+/// Where the shard files of a plan live: `dir/STEM.K-of-N.shard` for a plan of one wave,
+/// `dir/STEM.waveW-of-WS.K-of-N.shard` otherwise (`K`, `W` from 1).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ShardFiles {
+    /// The folder.
+    pub dir: PathBuf,
+    /// The file names' stem (the map's name).
+    pub stem: String,
+    /// The plan.
+    pub plan: Plan,
+}
+
+impl ShardFiles {
+    /// The shard files of `plan` for the input at `input`, in `dir` or else the folder
+    /// `INPUT.shards` beside it (`e1m1.bsp.shards`).
+    pub fn for_input(input: &Path, dir: Option<&Path>, plan: Plan) -> Self {
+        let dir = dir.map_or_else(
+            || {
+                let mut d = input.as_os_str().to_owned();
+                d.push(".shards");
+                PathBuf::from(d)
+            },
+            Path::to_path_buf,
+        );
+        let stem = input.file_stem().map_or_else(|| "vis".to_string(), |s| s.to_string_lossy().into_owned());
+        Self { dir, stem, plan }
+    }
+
+    /// The file of shard `index` of wave `wave` (both from 1).
+    pub fn path(&self, wave: u32, index: u32) -> PathBuf {
+        let (n, ws) = (self.plan.shards, self.plan.waves);
+        let name = if ws == 1 {
+            format!("{}.{index}-of-{n}.shard", self.stem)
+        } else {
+            format!("{}.wave{wave}-of-{ws}.{index}-of-{n}.shard", self.stem)
+        };
+        self.dir.join(name)
+    }
+}
+
+/// A merge of shard files (what `VisOptions::merge` asks for).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MergeSpec {
+    /// The files.
+    pub files: ShardFiles,
+    /// Merge without the missing shards: their portals keep their base-vis rows.
+    pub allow_partial: bool,
+}
+
 /// A plan laid over a run's portals.
 #[derive(Debug, Clone)]
 pub(super) struct Layout {
@@ -70,7 +129,7 @@ impl Layout {
     /// The layout of `plan` over `n` portals whose `mightsee` rows are `might` (`words` each, as
     /// base vis left them, before any tightening).
     pub fn new(plan: Plan, might: &[u64], words: usize, n: usize) -> Self {
-        let order = super::schedule::processing_order(might, words, n);
+        let order = processing_order(might, words, n);
         let size = wave_size(n, plan.waves);
         let shards = plan.shards as usize;
         let mut units = Vec::with_capacity(plan.waves as usize);

@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
-use sightline_formats::bits;
 use sightline_formats::hash::{FNV_OFFSET, fnv1a};
 use sightline_formats::prt::PortalFile;
 use sightline_job::progress::{Phase, Progress, phase};
@@ -32,14 +31,6 @@ pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u
     }
 }
 
-/// The order portals are flowed in: increasing `mightsee` (the `n` rows of `might`, `words`
-/// words each), then portal number.
-pub(super) fn processing_order(might: &[u64], words: usize, n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_cached_key(|&p| (bits::count(&might[p * words..(p + 1) * words]), p));
-    order
-}
-
 /// Flow every portal in deterministic batches; returns the final portal rows.
 pub(super) fn flow_all(
     prt: &PortalFile,
@@ -51,7 +42,7 @@ pub(super) fn flow_all(
     stats: &mut VisStats,
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
-    let order = processing_order(&might, words, n);
+    let order = plan::processing_order(&might, words, n);
     // The flow narrows the `mightsee` rows in place.
     let mut test = might;
     symmetry::tighten_all(&mut test, words, n);

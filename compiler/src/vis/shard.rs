@@ -24,7 +24,7 @@
 //! rows, so the PVS stays conservative, only looser ([`MergeStats`]).
 
 use std::borrow::Cow;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
@@ -39,6 +39,8 @@ use sightline_job::progress::{Progress, phase};
 use super::error::{VisError, panic_error};
 use super::options::VisOptions;
 use super::plan::{Layout, Plan, PlanReport};
+pub use super::plan::{MergeSpec, ShardFiles};
+pub use super::stats::MergeStats;
 use super::stats::VisStats;
 use super::{base, flow, graph, parallel, rows, seeds, state, symmetry};
 
@@ -48,71 +50,6 @@ const MAGIC: u64 = 0x534c_5649_5353_4831;
 
 /// The program version a shard's identity names.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
-
-/// Where the shard files of a plan live: `dir/STEM.K-of-N.shard` for a plan of one wave,
-/// `dir/STEM.waveW-of-WS.K-of-N.shard` otherwise (`K`, `W` from 1).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ShardFiles {
-    /// The folder.
-    pub dir: PathBuf,
-    /// The file names' stem (the map's name).
-    pub stem: String,
-    /// The plan.
-    pub plan: Plan,
-}
-
-impl ShardFiles {
-    /// The shard files of `plan` for the input at `input`, in `dir` or else the folder
-    /// `INPUT.shards` beside it (`e1m1.bsp.shards`).
-    pub fn for_input(input: &Path, dir: Option<&Path>, plan: Plan) -> Self {
-        let dir = dir.map_or_else(
-            || {
-                let mut d = input.as_os_str().to_owned();
-                d.push(".shards");
-                PathBuf::from(d)
-            },
-            Path::to_path_buf,
-        );
-        let stem = input.file_stem().map_or_else(|| "vis".to_string(), |s| s.to_string_lossy().into_owned());
-        Self { dir, stem, plan }
-    }
-
-    /// The file of shard `index` of wave `wave` (both from 1).
-    pub fn path(&self, wave: u32, index: u32) -> PathBuf {
-        let (n, ws) = (self.plan.shards, self.plan.waves);
-        let name = if ws == 1 {
-            format!("{}.{index}-of-{n}.shard", self.stem)
-        } else {
-            format!("{}.wave{wave}-of-{ws}.{index}-of-{n}.shard", self.stem)
-        };
-        self.dir.join(name)
-    }
-}
-
-/// A merge of shard files ([`VisOptions::merge`](super::VisOptions::merge)).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct MergeSpec {
-    /// The files.
-    pub files: ShardFiles,
-    /// Merge without the missing shards: their portals keep their base-vis rows.
-    pub allow_partial: bool,
-}
-
-/// What a merge found ([`VisStats::merged`]).
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
-pub struct MergeStats {
-    /// Shards per wave.
-    pub shards: u32,
-    /// Waves.
-    pub waves: u32,
-    /// The shard files missing (a partial merge).
-    pub missing: Vec<String>,
-    /// One-way portals of the missing shards, left their base-vis rows.
-    pub missing_portals: usize,
-    /// Visible leaf pairs the missing portals' base-vis rows alone add (the PVS without them,
-    /// their rows taken as empty, has this many fewer): how much looser a partial merge may be.
-    pub pairs_from_missing: u64,
-}
 
 /// The contents of a shard file (see the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -610,7 +547,7 @@ mod tests {
     use super::*;
     use sightline_job::progress::NoProgress;
 
-    fn temp(name: &str) -> PathBuf {
+    fn temp(name: &str) -> std::path::PathBuf {
         let d = std::env::temp_dir().join(format!("sightline-shard-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         d

@@ -48,7 +48,7 @@ pub struct VisStats {
     pub coarsened: Option<CoarsenStats>,
     /// When the flow rows came from shard files ([`VisOptions::merge`](super::VisOptions::merge)):
     /// the plan, and what was missing.
-    pub merged: Option<super::shard::MergeStats>,
+    pub merged: Option<MergeStats>,
 }
 
 /// The PVS: one row per cluster (bits over clusters), expandable to leaves.
@@ -159,4 +159,20 @@ pub struct CoarsenStats {
     pub estimate: u64,
     /// [`work_estimate`](super::work_estimate) of the run on the merged clusters, in portal tests.
     pub work: u64,
+}
+
+/// What a merge found ([`VisStats::merged`]).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct MergeStats {
+    /// Shards per wave.
+    pub shards: u32,
+    /// Waves.
+    pub waves: u32,
+    /// The shard files missing (a partial merge).
+    pub missing: Vec<String>,
+    /// One-way portals of the missing shards, left their base-vis rows.
+    pub missing_portals: usize,
+    /// Visible leaf pairs the missing portals' base-vis rows alone add (the PVS without them,
+    /// their rows taken as empty, has this many fewer): how much looser a partial merge may be.
+    pub pairs_from_missing: u64,
 }
