@@ -26,7 +26,8 @@ import time
 
 
 def run_once(argv, cwd):
-    """Spawn argv in cwd with output discarded; return (cpu_seconds, wall_seconds, status)."""
+    """Spawn argv in cwd with output discarded; return (cpu_seconds, wall_seconds, status,
+    peak_resident_kib)."""
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         actions = [
@@ -44,7 +45,7 @@ def run_once(argv, cwd):
             os.chdir(old)
     finally:
         os.close(devnull)
-    return usage.ru_utime + usage.ru_stime, wall, status
+    return usage.ru_utime + usage.ru_stime, wall, status, usage.ru_maxrss
 
 
 def command(name, exe, threads, bsp):
@@ -89,7 +90,7 @@ def main():
                     os.makedirs(d, exist_ok=True)
                     shutil.copyfile(bsp, os.path.join(d, base + ".bsp"))
                     shutil.copyfile(prt, os.path.join(d, base + ".prt"))
-                    cpu, wall, status = run_once(command(name, exe, args.threads, base + ".bsp"), d)
+                    cpu, wall, status, _ = run_once(command(name, exe, args.threads, base + ".bsp"), d)
                     if status != 0:
                         sys.exit(f"{name} failed on {bsp}: status {status}")
                     times[name][0].append(cpu * 1e3)

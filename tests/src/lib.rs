@@ -1,12 +1,14 @@
 //! Helpers shared by the integration tests in `tests/tests/` and the tests, examples and
 //! benchmarks of every crate: the shared-maps lookup (a skip becomes a failure under
 //! `SIGHTLINE_REQUIRE_MAPS`), input mutation, generated inputs ([`mapgen`]: sealed `.map` text of
-//! any size; [`shapes`]: the inputs that cost vis the most for their size; [`coplanar`]: meshes
+//! any size; [`shapes`]: the inputs that cost vis the most for their size; [`heavy`]: open maps
+//! for the heavy benchmark set; [`coplanar`]: meshes
 //! of many coplanar triangles, the inputs that cost a mesh's outside phase the most), [`runtime_check`]
 //! (brute-force reference answers for `sightline-runtime`) and [`synth`] (synthetic levels built
 //! in code).
 
 pub mod coplanar;
+pub mod heavy;
 pub mod mapgen;
 pub mod shapes;
 
