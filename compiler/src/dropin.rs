@@ -279,10 +279,12 @@ pub(crate) fn flow(
 
 /// [`flow`] with the clusters merged as `merge` says (a `func_viscluster` of the `.bsp`): vis
 /// runs on the merged portal file (`vis::coarsen`'s, whose conservativeness argument holds), and
-/// the result is expanded back to the input's clusters. A note says what each entity merged.
+/// the result is expanded back to the input's clusters. A note says what each entity merged, in
+/// `unit`s (what a portal-file leaf is: "vis leaves", or "clusters" for Quake 2 and 3).
 pub(crate) fn flow_merged(
     prt: &sightline_formats::prt::PortalFile,
     merge: Option<&crate::viscluster::BspMerge>,
+    unit: &str,
     opts: &DropInOptions,
     progress: &dyn Progress,
     path: &Path,
@@ -290,7 +292,7 @@ pub(crate) fn flow_merged(
     let Some(m) = merge else { return flow(prt, opts, progress, path) };
     for (i, n) in m.leaves.iter().enumerate() {
         progress.note(&format!(
-            "{}: func_viscluster {} (by entity order) merged {n} vis leaves",
+            "{}: func_viscluster {} (by entity order) merged {n} {unit}",
             path.display(),
             i + 1
         ));

@@ -101,51 +101,88 @@ pub(crate) fn merge_keys(keys: &mut [u32], groups: &[Option<u32>]) {
     }
 }
 
-/// The merge `func_viscluster` entities ask of a Quake 1 or Half-Life `.bsp` vised from its
-/// `.prt` (see [`bsp_merge`]).
+/// The merge `func_viscluster` entities ask of a compiled `.bsp` vised from its portal file
+/// (see [`box_merge`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct BspMerge {
     /// Per cluster of the portal file, its merged cluster (numbered by lowest input cluster).
     pub new_id: Vec<u32>,
     /// Merged clusters.
     pub groups: u32,
-    /// Per entity with a brush model, in entity order: the vis leaves it merged.
+    /// Per entity with a brush model, in entity order: the portal-file leaves it merged (vis
+    /// leaves of a Quake 1 or Half-Life file, clusters of a Quake 2 or 3 one).
     pub leaves: Vec<usize>,
 }
 
-/// The merge for `bsp`'s `func_viscluster` entities, `None` when it has none with a brush model
-/// (`"model" "*N"`, `N ≥ 1`, a model the file has) or its entity text does not parse. A compiled
-/// `.bsp` keeps no brush planes, so **inside** here is: the centre of the leaf's stored bounds
-/// lies within the model's stored bounds (its box, which holds its brushes: at worst a few more
-/// leaves merge, which stays conservative). Vis leaf `j` of `prt` is BSP leaf `j + 1`; a leaf the
-/// `.bsp` lacks or whose bounds are not finite stays as it is. A cluster holding leaves of several
-/// entities joins the first in entity order; every other cluster stays alone.
+/// The merge for a Quake 1 or Half-Life `bsp` vised from `prt` ([`box_merge`]): vis leaf `j` of
+/// `prt` is BSP leaf `j + 1`.
 pub(crate) fn bsp_merge(
     bsp: &sightline_formats::bsp::Bsp,
     prt: &sightline_formats::prt::PortalFile,
 ) -> Option<BspMerge> {
-    let entities = sightline_formats::entities::parse(&bsp.entities).ok()?;
+    let boxes = |m: u32| bsp.models.get(m as usize).map(|m| (m.mins, m.maxs));
+    let leaves =
+        (0..prt.leaf_clusters.len()).filter_map(|j| bsp.leaves.get(j + 1).map(|l| (j, (l.mins, l.maxs))));
+    box_merge(&bsp.entities, boxes, prt, leaves)
+}
+
+/// The merge for a Quake 2 or Quake 3 file read as `level`, whose portal file `prt` is over
+/// clusters (portal-file leaf `c` is cluster `c`): a cluster merges when the centre of one of
+/// its leaves lies in an entity's box ([`box_merge`]). `model_box` gives a brush model's stored
+/// bounds (a Quake 3 level keeps only the world model, so its caller reads them from the file).
+pub(crate) fn level_merge(
+    level: &sightline_formats::level::Level,
+    model_box: impl Fn(u32) -> Option<([f32; 3], [f32; 3])>,
+    prt: &sightline_formats::prt::PortalFile,
+) -> Option<BspMerge> {
+    let leaves =
+        level.leaves.iter().filter_map(|l| usize::try_from(l.cluster).ok().map(|c| (c, (l.mins, l.maxs))));
+    box_merge(&level.entities, model_box, prt, leaves)
+}
+
+/// The merge for the `func_viscluster` entities of a compiled file's entity text, `None` when it
+/// has none with a brush model (`"model" "*N"`, `N ≥ 1`, a model `model_box` knows) or the text
+/// does not parse. A compiled file keeps no brush planes, so **inside** here is: the centre of
+/// a leaf's stored bounds lies within the model's stored bounds (its box, which holds its
+/// brushes: at worst a few more leaves merge, which stays conservative). `leaves` gives, per
+/// leaf of the file, the portal-file leaf it belongs to and its bounds; a leaf whose bounds are
+/// not finite, or whose portal-file leaf `prt` lacks, stays as it is. A cluster holding leaves of
+/// several entities joins the first in entity order; every other cluster stays alone.
+fn box_merge(
+    entities: &str,
+    model_box: impl Fn(u32) -> Option<([f32; 3], [f32; 3])>,
+    prt: &sightline_formats::prt::PortalFile,
+    leaves: impl Iterator<Item = (usize, ([f32; 3], [f32; 3]))>,
+) -> Option<BspMerge> {
+    let entities = sightline_formats::entities::parse(entities).ok()?;
+    let v = |a: [f32; 3]| DVec3::from(a.map(f64::from));
     let boxes: Vec<(DVec3, DVec3)> = entities
         .iter()
         .filter(|e| e.classname() == VISCLUSTER_CLASSNAME)
         .filter_map(|e| e.model().filter(|&m| m >= 1))
-        .filter_map(|m| bsp.models.get(m as usize))
-        .map(|m| (DVec3::from(m.mins.map(f64::from)), DVec3::from(m.maxs.map(f64::from))))
+        .filter_map(&model_box)
+        .map(|(lo, hi)| (v(lo), v(hi)))
         .collect();
     if boxes.is_empty() {
         return None;
     }
     let nc = prt.num_clusters as usize;
-    let mut group: Vec<Option<usize>> = vec![None; nc];
-    for (j, &c) in prt.leaf_clusters.iter().enumerate() {
-        let Some(l) = bsp.leaves.get(j + 1) else { continue };
-        let centre = (DVec3::from(l.mins.map(f64::from)) + DVec3::from(l.maxs.map(f64::from))) * 0.5;
+    // Per portal-file leaf, the entity holding one of its file leaves (the lowest).
+    let mut leaf_group: Vec<Option<usize>> = vec![None; prt.leaf_clusters.len()];
+    for (j, (mins, maxs)) in leaves {
+        let centre = (v(mins) + v(maxs)) * 0.5;
         if !centre.is_finite() {
             continue;
         }
         let g = boxes.iter().position(|(lo, hi)| centre.cmpge(*lo).all() && centre.cmple(*hi).all());
-        if let (Some(g), Some(slot)) = (g, group.get_mut(c as usize)) {
+        if let (Some(g), Some(slot)) = (g, leaf_group.get_mut(j)) {
             *slot = Some(slot.map_or(g, |o| o.min(g)));
+        }
+    }
+    let mut group: Vec<Option<usize>> = vec![None; nc];
+    for (&c, g) in prt.leaf_clusters.iter().zip(&leaf_group) {
+        if let (Some(g), Some(slot)) = (g, group.get_mut(c as usize)) {
+            *slot = Some(slot.map_or(*g, |o| o.min(*g)));
         }
     }
     let mut first: Vec<Option<u32>> = vec![None; boxes.len()];
@@ -165,11 +202,11 @@ pub(crate) fn bsp_merge(
         };
         new_id.push(id);
     }
-    let mut leaves = vec![0usize; boxes.len()];
+    let mut merged = vec![0usize; boxes.len()];
     for &c in &prt.leaf_clusters {
         if let Some(Some(g)) = group.get(c as usize) {
-            leaves[*g] += 1;
+            merged[*g] += 1;
         }
     }
-    Some(BspMerge { new_id, groups, leaves })
+    Some(BspMerge { new_id, groups, leaves: merged })
 }

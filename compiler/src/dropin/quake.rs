@@ -54,7 +54,7 @@ pub fn run(
     }
     let read_seconds = t0.elapsed().as_secs_f64();
     let merge = input.bsp.as_ref().and_then(|b| crate::viscluster::bsp_merge(&b.bsp, &input.prt));
-    let mut result = super::flow_merged(&input.prt, merge.as_ref(), opts, progress, path)?;
+    let mut result = super::flow_merged(&input.prt, merge.as_ref(), "vis leaves", opts, progress, path)?;
     let mut farplane_hidden_pairs = 0;
     if let (Some(d), Some(b)) = (farplane, &input.bsp) {
         let unbounded: Vec<u32> = (1..=b.bsp.visleafs())

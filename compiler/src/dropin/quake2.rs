@@ -1,7 +1,8 @@
 //! The drop-in vis of a Quake 2 `.bsp` (`IBSP` 38): qbsp's PRT1 beside it names clusters, so vis
 //! computes cluster rows, [`crate::phs`] adds the PHS, and the visibility lump is replaced
 //! ([`sightline_formats::bsp::q2`]). With [`DropInOptions::phs_only`] only the PHS of a vised
-//! file is recomputed, every PVS byte kept. The far plane culls by cluster boxes made from the
+//! file is recomputed, every PVS byte kept. A `func_viscluster` brush entity merges the
+//! clusters whose leaves lie in its model's box ([`crate::viscluster::level_merge`]). The far plane culls by cluster boxes made from the
 //! file's leaves ([`visdata::level_cluster_boxes`]) before the PHS is formed; ambient options do
 //! not apply (Quake 2 has no ambient levels).
 
@@ -72,10 +73,12 @@ pub fn run(
                 ),
             ));
         }
-        let mut result = super::flow(&prt, opts, progress, path)?;
+        let (level, repairs) = map.to_level_with_repairs();
+        let model_box = |m: u32| level.models.get(m as usize).map(|m| (m.mins, m.maxs));
+        let merge = crate::viscluster::level_merge(&level, model_box, &prt);
+        let mut result = super::flow_merged(&prt, merge.as_ref(), "clusters", opts, progress, path)?;
         let mut farplane_hidden_pairs = None;
         if let Some(d) = farplane {
-            let (level, repairs) = map.to_level_with_repairs();
             for r in repairs.iter().filter(|r| r.record == "leaf") {
                 progress.warn(&format!(
                     "{}: {r} (the far plane culls clusters by their leaves' boxes)",

@@ -4,12 +4,13 @@
 //! q3map2's `.prt` ([`PrtFormat::Q3map2`], or a plain PRT1 over the same clusters) names
 //! clusters, so vis runs on it as on a Quake 1 PRT1 and the rows are stored uncompressed, as
 //! [`q3::vis_lump`] lays them out. The far plane and the PHS are refused, and the ambient options
-//! do not apply (Quake 3 has no ambient levels).
+//! do not apply (Quake 3 has no ambient levels). A `func_viscluster` brush entity merges the
+//! clusters whose leaves lie in its model's box ([`crate::viscluster::level_merge`]).
 
 use std::path::Path;
 use std::time::Instant;
 
-use sightline_formats::bsp::{CompiledMap, q3};
+use sightline_formats::bsp::{CompiledMap, Parsed, q3};
 use sightline_formats::prt::PrtFormat;
 
 use sightline_job::progress::Progress;
@@ -55,7 +56,14 @@ pub fn run(
             ),
         ));
     }
-    let result = super::flow(&portals, opts, progress, path)?;
+    let merge = match map.parsed() {
+        Parsed::Quake3(f) => {
+            let model_box = |m: u32| f.models.get(m as usize).map(|m| (m.mins, m.maxs));
+            crate::viscluster::level_merge(&map.to_level(), model_box, &portals)
+        }
+        _ => None,
+    };
+    let result = super::flow_merged(&portals, merge.as_ref(), "clusters", opts, progress, path)?;
     let rows = super::cluster_rows(&result, clusters);
     let lump = q3::vis_lump(clusters, &rows).map_err(DropInError::bsp(path))?;
     let out = q3::write_with_visibility(map.bytes(), &lump).map_err(DropInError::bsp(path))?;

@@ -2,12 +2,13 @@
 //! "*N"`): on dm1 with one added naming model 1, whose stored box is widened over half the
 //! world, the leaves whose bounds' centre lies in that box (computed here) share one PVS row,
 //! which holds what each of them saw before, every other row only grows, and vis says how many
-//! leaves it merged.
+//! leaves it merged. The same on a Quake 2 file (e1m1) and a Quake 3 one (dm17ish), whose portal
+//! files are over clusters: the clusters with a leaf centre in the box share one row.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use sightline_formats::bsp::{self, Bsp, lump};
+use sightline_formats::bsp::{self, Bsp, CompiledMap, lump, q2};
 
 /// `bytes` with `extra` appended to its entity text (the lump moved to the end of the file).
 fn with_entities(bytes: &[u8], b: &Bsp, extra: &str) -> Vec<u8> {
@@ -93,4 +94,132 @@ fn a_func_viscluster_in_a_quake_bsp_merges_the_leaves_in_its_model_box() {
         assert_eq!(after[l], after[merged[0]], "merged leaves share one row");
     }
     let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
+}
+
+/// An `IBSP` file's lump `index` (Quake 2 and 3 share the header layout), as (offset, length).
+fn ibsp_lump(bytes: &[u8], index: usize) -> (usize, usize) {
+    let at = 8 + 8 * index;
+    let word = |k: usize| i32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes")) as usize;
+    (word(at), word(at + 4))
+}
+
+/// Every cluster's PVS row of a vised Quake 2 file.
+fn q2_rows(bytes: &[u8]) -> Vec<Vec<u8>> {
+    let b = q2::read(bytes).expect("vised file reads");
+    let v = b.vis.as_ref().expect("a visibility lump");
+    let all = v.decode_all(q2::Q2Row::Pvs).expect("rows");
+    all.chunks(v.row_bytes().max(1)).take(v.num_clusters).map(<[u8]>::to_vec).collect()
+}
+
+/// Every cluster's PVS row of a vised Quake 3 file (lump 16: cluster count, row bytes, rows).
+fn q3_rows(bytes: &[u8]) -> Vec<Vec<u8>> {
+    let (at, _) = ibsp_lump(bytes, 16);
+    let word = |k: usize| i32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes")) as usize;
+    let (n, row) = (word(at), word(at + 4));
+    (0..n).map(|c| bytes[at + 8 + c * row..at + 8 + (c + 1) * row].to_vec()).collect()
+}
+
+/// A Quake 2 or 3 game as this test edits it: its models lump and record size, how to read the
+/// vised rows.
+struct Ibsp {
+    models_lump: usize,
+    model_bytes: usize,
+    rows: fn(&[u8]) -> Vec<Vec<u8>>,
+}
+
+/// On the shared map `name` (`.bsp` and `.prt`) of an `IBSP` game: widen model 1's stored box
+/// over the world's −x half, vis it, add a `func_viscluster` naming model 1, vis again: the
+/// clusters with a leaf centre in the box share one row after, which covers what each saw, and
+/// every other row only grows.
+fn merges_clusters_in_model_box(name: &str, game: Ibsp) {
+    let (Some(bsp_path), Some(prt)) = (
+        sightline_tests::shared_map(&format!("{name}.bsp")),
+        sightline_tests::shared_map(&format!("{name}.prt")),
+    ) else {
+        return;
+    };
+    let original = std::fs::read(&bsp_path).expect("read");
+    let (models, _) = ibsp_lump(&original, game.models_lump);
+    let float = |k: usize| f32::from_le_bytes(original[k..k + 4].try_into().expect("4 bytes"));
+    let (wmin, wmax): ([f32; 3], [f32; 3]) =
+        (std::array::from_fn(|k| float(models + 4 * k)), std::array::from_fn(|k| float(models + 12 + 4 * k)));
+    let boxed = [wmin, [(wmin[0] + wmax[0]) / 2.0, wmax[1], wmax[2]]];
+    let mut plain = original.clone();
+    for (k, v) in boxed.iter().flatten().enumerate() {
+        let at = models + game.model_bytes + 4 * k;
+        plain[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    let level = CompiledMap::read(plain.clone()).expect("reads").to_level();
+    let mut merged: Vec<usize> = level
+        .leaves
+        .iter()
+        .filter(|l| {
+            let c = centre(l.mins, l.maxs);
+            (0..3).all(|k| boxed[0][k] as f64 <= c[k] && c[k] <= boxed[1][k] as f64)
+        })
+        .filter_map(|l| usize::try_from(l.cluster).ok())
+        .collect();
+    merged.sort_unstable();
+    merged.dedup();
+    let dir = std::env::temp_dir().join(format!(
+        "sightline-vis-viscluster-{}-{}",
+        name.replace('/', "-"),
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let run = |file: &str, bytes: &[u8]| {
+        let path = dir.join(format!("{file}.bsp"));
+        std::fs::write(&path, bytes).expect("write");
+        std::fs::copy(&prt, dir.join(format!("{file}.prt"))).expect("copy the portal file");
+        let out = Command::new(sightline_tests::sightline_binary())
+            .args(["vis", "--threads", "2"])
+            .arg(&path)
+            .output()
+            .expect("run sightline");
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        ((game.rows)(&std::fs::read(&path).expect("read")), stderr)
+    };
+    let (before, _) = run("plain", &plain);
+    let mut rows: Vec<&Vec<u8>> = merged.iter().map(|&c| &before[c]).collect();
+    rows.sort();
+    rows.dedup();
+    assert!(rows.len() >= 2, "{name}: the box's clusters saw alike before");
+    // The entity text (lump 0, NUL-terminated) with the entity appended, moved to the end.
+    let (at, len) = ibsp_lump(&plain, 0);
+    let text = String::from_utf8_lossy(&plain[at..at + len]).trim_end_matches('\0').to_string();
+    let text = format!("{text}{{\n\"classname\" \"func_viscluster\"\n\"model\" \"*1\"\n}}\n");
+    let mut with = plain.clone();
+    while !with.len().is_multiple_of(4) {
+        with.push(0);
+    }
+    let offset = with.len();
+    with.extend_from_slice(text.as_bytes());
+    with.push(0);
+    with[8..12].copy_from_slice(&(offset as i32).to_le_bytes());
+    with[12..16].copy_from_slice(&((text.len() + 1) as i32).to_le_bytes());
+    let (after, stderr) = run("merged", &with);
+    assert!(
+        stderr.contains(&format!("func_viscluster 1 (by entity order) merged {} clusters", merged.len())),
+        "{name}: {stderr}"
+    );
+    assert_eq!(before.len(), after.len());
+    let covers = |a: &[u8], b: &[u8]| a.iter().zip(b).all(|(x, y)| x & y == *y);
+    for (c, (a, o)) in after.iter().zip(&before).enumerate() {
+        assert!(covers(a, o), "{name}: cluster {c} lost sight of a cluster");
+    }
+    for &c in &merged {
+        assert_eq!(after[c], after[merged[0]], "{name}: merged clusters share one row");
+    }
+    let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
+}
+
+#[test]
+fn a_func_viscluster_in_a_quake2_bsp_merges_the_clusters_in_its_model_box() {
+    merges_clusters_in_model_box("q2/e1m1", Ibsp { models_lump: 13, model_bytes: 48, rows: q2_rows });
+}
+
+#[test]
+fn a_func_viscluster_in_a_quake3_bsp_merges_the_clusters_in_its_model_box() {
+    merges_clusters_in_model_box("q3/dm17ish", Ibsp { models_lump: 7, model_bytes: 40, rows: q3_rows });
 }
