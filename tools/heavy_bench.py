@@ -79,17 +79,26 @@ def ericw_tool(folder, name):
 
 
 def visible_pairs(sightline, bsp):
-    """Ordered visible leaf pairs of a vised file, from `sightline info --json`."""
+    """Ordered visible leaf pairs of a vised `.bsp`, from `sightline info --json`."""
     out = bsp + ".info.json"
     _, _, status, _ = run_limited([sightline, "info", "--json", os.path.basename(bsp)], os.path.dirname(bsp), None, out)
     if status != 0:
         return None
     with open(out) as f:
         info = json.load(f)
-    pvs = info.get("pvs") or {}
-    if "avg_visible_leaves" not in pvs:
+    if info.get("pvs_pairs") is None:
         return None
-    return round(pvs["avg_visible_leaves"] * info["vis_leaves"]), info.get("portals")
+    return info["pvs_pairs"]
+
+
+def prt_counts(path):
+    """(vis leaves, portals) from a `.prt` header (PRT1: leaves, portals; PRT2: leaves,
+    clusters, portals)."""
+    with open(path, errors="replace") as f:
+        head = [f.readline().strip() for _ in range(4)]
+    if head[0] == "PRT2":
+        return int(head[1]), int(head[3])
+    return int(head[1]), int(head[2])
 
 
 def fresh_copy(src_stem, folder):
@@ -135,6 +144,7 @@ def measure(item, args, work, record):
             row["ours_compile"]["portals"] = stats["portals"]
             row["ours_compile"]["vis_leaves"] = stats["vis_leaves"]
             row["ours_compile"]["vis_seconds"] = next(p["seconds"] for p in stats["phases"] if p["name"] == "vis")
+    row["vis_leaves"], row["portals"] = prt_counts(stem + ".prt")
     for tool, argv in (
         ("ericw", [args.vis, "-threads", str(args.threads), name + ".bsp"]),
         ("ours", [args.sightline, "vis", "--no-progress", "--threads", str(args.threads), name + ".bsp"]),
@@ -143,9 +153,7 @@ def measure(item, args, work, record):
         cpu, wall, status, rss = run_limited(argv, os.path.dirname(bsp), args.timeout)
         row[tool + "_vis"] = {"cpu": cpu, "wall": wall, "peak_kib": rss, "status": status}
         if status == 0:
-            got = visible_pairs(args.sightline, bsp)
-            if got:
-                row[tool + "_vis"]["pairs"], row["portals"] = got
+            row[tool + "_vis"]["pairs"] = visible_pairs(args.sightline, bsp)
     record(row)
     return row
 
@@ -164,7 +172,7 @@ def print_row(row, timeout):
     e, o = row.get("ericw_vis"), row.get("ours_vis")
     ok = e and o and e["status"] == 0 and o["status"] == 0
     ratio = f"**{e['cpu'] / max(o['cpu'], 1e-3):.1f}**" if ok else "—"
-    pairs = f"{o['pairs']:,} / {e['pairs']:,} = {o['pairs'] / e['pairs']:.3f}" if ok and "pairs" in o and "pairs" in e else "—"
+    pairs = f"{o['pairs']:,} / {e['pairs']:,} = {o['pairs'] / e['pairs']:.3f}" if ok and o["pairs"] and e["pairs"] else "—"
     c = row.get("ours_compile")
     own = (
         f"{c['portals']:,} portals, vis {c['vis_seconds']:.1f} s wall, total {c['cpu']:.1f} CPU s"
@@ -173,7 +181,7 @@ def print_row(row, timeout):
     )
     q = row.get("ericw_qbsp")
     print(
-        f"| {row['map']} | {row.get('portals', '—')} | {cell(q, timeout)} | {cell(e, timeout)} | {cell(o, timeout)} "
+        f"| {row['map']} | {row.get('vis_leaves', '—')} / {row.get('portals', '—')} | {cell(q, timeout)} | {cell(e, timeout)} | {cell(o, timeout)} "
         f"| {ratio} | {pairs} | {own} |"
     )
     sys.stdout.flush()
@@ -203,7 +211,7 @@ def main():
                 f.write(json.dumps(row) + "\n")
 
     print(
-        f"| map | portals | ericw qbsp CPU s / wall s / MB | ericw vis -threads {args.threads}: CPU s / wall s / MB "
+        f"| map | ericw .prt: vis leaves / portals | ericw qbsp CPU s / wall s / MB | ericw vis -threads {args.threads}: CPU s / wall s / MB "
         f"| ours vis --threads {args.threads}: CPU s / wall s / MB | ericw / ours CPU | pairs ours / ericw "
         "| ours from our own compile |"
     )
