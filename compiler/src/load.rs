@@ -146,6 +146,12 @@ pub(crate) fn load_map(
                 brush: bi,
                 problem: problem.to_string(),
             };
+            let shape = |p: BrushProblem| match p {
+                BrushProblem::AllDegenerate => bad("every side is degenerate: the planes enclose no volume"),
+                BrushProblem::Unbounded => bad(&format!(
+                    "the planes do not close the brush, or it reaches beyond ±{WORLD_LIMIT} units"
+                )),
+            };
             if b.sides.len() > MAX_BRUSH_SIDES {
                 return Err(bad(&format!(
                     "{} sides, more than the {MAX_BRUSH_SIDES} a brush may have (the work on one brush grows \
@@ -166,6 +172,16 @@ pub(crate) fn load_map(
                         what: format!("a point of entity {ei} (`{}`) brush {bi}", e.classname()),
                     });
                 }
+                // Its planes must close a volume, as any brush's: an unbounded one would merge
+                // leaves far outside what the mapper drew. Checked on planes of its own, so the
+                // map's plane set (and the level) stays as without the entity.
+                let mut own = PlaneSet::new();
+                let specs: Vec<SideSpec> = b
+                    .sides
+                    .iter()
+                    .map(|s| SideSpec { plane: own.insert(s.plane) as u32, hint: false })
+                    .collect();
+                Brush::from_planes(&own, &specs, Contents::Empty).map_err(shape)?;
                 if let Some(v) = visclusters.last_mut() {
                     v.brushes.push(b.sides.iter().map(|s| s.plane).collect());
                 }
@@ -191,12 +207,7 @@ pub(crate) fn load_map(
                     hint: TextureKind::of(&s.texture) == TextureKind::Hint,
                 });
             }
-            let (brush, side_map) = Brush::from_planes(&planes, &specs, contents).map_err(|p| match p {
-                BrushProblem::AllDegenerate => bad("every side is degenerate: the planes enclose no volume"),
-                BrushProblem::Unbounded => bad(&format!(
-                    "the planes do not close the brush, or it reaches beyond ±{WORLD_LIMIT} units"
-                )),
-            })?;
+            let (brush, side_map) = Brush::from_planes(&planes, &specs, contents).map_err(shape)?;
             if brush.sides.len() < 4 {
                 stats.warnings.push(format!(
                     "{file}:{}: entity {ei} brush {bi} keeps only {} sides with area; skipped",

@@ -7,8 +7,8 @@
 //!   fill and the same leak result as without them. The entity itself is not written to the
 //!   level's entity text (the compiler consumes it, as `func_detail`).
 //! - A brush is the intersection of the back half spaces of its sides' planes (the `.map`'s
-//!   planes face out of the brush), taken as written: no side is dropped, a brush whose planes do
-//!   not close stays an unbounded convex region.
+//!   planes face out of the brush), taken as written: no side is dropped. Its planes must close
+//!   a volume, as any brush's: one whose planes do not is refused at its line.
 //! - **Inside**: a non-solid world leaf (after the outside fill) is inside an entity when the
 //!   centre of the leaf's bounding box lies on or behind every plane of one of the entity's
 //!   brushes, within [`ON_EPSILON`]. The box centre is a single point for any leaf, slanted or

@@ -3,8 +3,9 @@
 //! entity's cluster (the first entity in map order wins an overlap; one cluster for several
 //! brushes); no other cluster changes; the world's tree, leaves and faces are the same as without
 //! it; the PVS has no misses and only grows; it never seals a leak; one holding no open leaf
-//! changes nothing at all; one over a whole detail map leaves one cluster; and the compile's
-//! report and `--json` count each entity's leaves.
+//! changes nothing at all; one over a whole detail map leaves one cluster; the compile's
+//! report and `--json` count each entity's leaves; and a brush of one whose planes do not close
+//! is refused at its line.
 
 use sightline_compiler::{CompileError, CompileOptions, Compiled, NoProgress, Source, compile};
 use sightline_formats::{Contents, Level};
@@ -272,4 +273,27 @@ fn the_compile_report_and_json_count_each_viscluster() {
         assert!(text_report.contains(&line), "{text_report}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_viscluster_brush_whose_planes_do_not_close_is_refused_at_its_line() {
+    let plain = generate(&PARAMS[0]);
+    // A box brush without its top side: an unbounded region, not a volume.
+    let boxed = brush([0.0, 0.0, 0.0], [64.0, 64.0, 64.0], "trigger");
+    let open: String =
+        boxed.lines().filter(|l| !l.starts_with("( 0 0 64 )")).map(|l| format!("{l}\n")).collect();
+    assert_eq!(open.lines().count(), boxed.lines().count() - 1, "the top side was dropped");
+    let text = format!("{plain}{{\n\"classname\" \"func_viscluster\"\n{open}}}\n");
+    let line = plain.lines().count() + 3;
+    match compile_text(&text) {
+        Err(e @ CompileError::BadBrush { .. }) => {
+            let message = e.to_string();
+            assert!(message.contains("do not close"), "{message}");
+            assert!(
+                message.contains(&format!(":{line}")) || message.contains(&format!("line {line}")),
+                "{message}"
+            );
+        }
+        other => panic!("an unbounded func_viscluster brush must be refused, got {other:?}"),
+    }
 }
