@@ -6,8 +6,11 @@ use glam::Vec3;
 
 use crate::geom::Cell;
 
-/// Most cells a grid may have.
+/// Most cells a grid may have as a list ([`grid`]).
 pub const MAX_GRID: u64 = 1 << 20;
+
+/// Most cells a [`Grid`] may have (numbered, never listed: it holds no memory per cell).
+pub const MAX_INDEXED: u64 = 1 << 32;
 
 /// Why [`grid`] gives no cells.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -16,20 +19,28 @@ pub enum GridError {
     /// The cube side is not positive (or NaN).
     #[error("cell size {0} must be positive")]
     Size(f32),
-    /// The grid would have more than [`MAX_GRID`] cells.
-    #[error("cell size {size} gives {count} cells (at most {MAX_GRID}); use a larger size")]
+    /// The grid would have more cells than allowed ([`MAX_GRID`] as a list, [`MAX_INDEXED`] as a
+    /// [`Grid`]).
+    #[error("cell size {size} gives {count} cells (at most {max}); use a larger size")]
     TooMany {
         /// The cube side.
         size: f32,
         /// The cells it gives.
         count: u64,
+        /// The most allowed.
+        max: u64,
     },
 }
 
 /// A grid of cubes of side `size` covering `bounds` (at least one cube along every axis), x
 /// fastest, then y, then z: [`Grid::cells`] of [`Grid::new`].
 pub fn grid(bounds: &Cell, size: f32) -> Result<Vec<Cell>, GridError> {
-    Ok(Grid::new(bounds, size)?.cells())
+    let g = Grid::new(bounds, size)?;
+    let count = g.len() as u64;
+    if count > MAX_GRID {
+        return Err(GridError::TooMany { size, count, max: MAX_GRID });
+    }
+    Ok(g.cells())
 }
 
 /// A grid of cubes over a box: its corner, the cube side and the cubes along each axis. Cube
@@ -45,15 +56,17 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The grid of cubes of side `size` covering `bounds` (at least one cube along every axis).
+    /// The grid of cubes of side `size` covering `bounds` (at least one cube along every axis),
+    /// of at most [`MAX_INDEXED`] cubes.
     pub fn new(bounds: &Cell, size: f32) -> Result<Grid, GridError> {
         if size.is_nan() || size <= 0.0 {
             return Err(GridError::Size(size));
         }
         let n = ((bounds.max - bounds.min) / size).ceil().max(Vec3::ONE);
-        let count = n.x as u64 * n.y as u64 * n.z as u64;
-        if count > MAX_GRID {
-            return Err(GridError::TooMany { size, count });
+        // Each factor saturates at `u64::MAX` for a huge (or NaN-free infinite) ratio.
+        let count = (n.x as u64).saturating_mul(n.y as u64).saturating_mul(n.z as u64);
+        if count > MAX_INDEXED {
+            return Err(GridError::TooMany { size, count, max: MAX_INDEXED });
         }
         Ok(Grid { min: bounds.min, size, n: [n.x as u32, n.y as u32, n.z as u32] })
     }
@@ -149,7 +162,9 @@ mod tests {
             assert!(matches!(grid(&bounds, size), Err(GridError::Size(_))), "{size}");
         }
         let err = grid(&bounds, 1.0).expect_err("10^9 cells");
-        assert_eq!(err, GridError::TooMany { size: 1.0, count: 1_000_000_000 });
+        assert_eq!(err, GridError::TooMany { size: 1.0, count: 1_000_000_000, max: MAX_GRID });
+        assert!(matches!(Grid::new(&bounds, 1e-3), Err(GridError::TooMany { max: MAX_INDEXED, .. })));
+        assert_eq!(Grid::new(&bounds, 1.0).map(|g| g.len()), Ok(1_000_000_000));
         assert_eq!(
             err.to_string(),
             "cell size 1 gives 1000000000 cells (at most 1048576); use a larger size"

@@ -32,6 +32,7 @@ pub mod frame;
 pub mod gate;
 pub mod mesh;
 pub mod scene;
+pub mod shadow;
 pub mod walk;
 
 use glam::{DVec3, Vec3};
@@ -73,10 +74,10 @@ pub enum TraceError {
     #[error(transparent)]
     Camera(#[from] RenderError),
     /// The grid of view cells of a mesh is unusable (cell size).
-    #[error("view cells: {0}")]
+    #[error("view cells")]
     Grid(#[from] sightline_gvs::cells::GridError),
     /// The GVS parameters of a mesh's cell sets are unusable.
-    #[error("GVS: {0}")]
+    #[error("GVS parameters")]
     Gvs(#[from] sightline_gvs::ParamError),
     /// The eye of a mesh camera is outside the grid of view cells.
     #[error("eye ({:.2}, {:.2}, {:.2}) is outside the grid of view cells", eye[0], eye[1], eye[2])]

@@ -30,10 +30,12 @@ use serde_json::{Value, json};
 use sightline_gvs::scenegen::{self, Kind};
 use sightline_validate::bsp::BspTree;
 use sightline_validate::pvs::BitMatrix;
+use sightline_validate::render::image::Image;
 use sightline_validate::trace::cells::CellCache;
 use sightline_validate::trace::frame::{Frame, Rays, picture};
 use sightline_validate::trace::mesh::{MeshCellSet, MeshCells, MeshScene, trace_mesh_camera};
 use sightline_validate::trace::scene::LevelScene;
+use sightline_validate::trace::shadow::{self, Light, LightLists, Lit};
 use sightline_validate::trace::walk::{self, Step};
 use sightline_validate::trace::{Camera, Surfaces, TraceError, trace_camera};
 use sightline_validate::{load, pvs};
@@ -102,6 +104,11 @@ pub struct Args {
     /// Seed of a generated scene.
     #[arg(long, default_value_t = 1)]
     pub scene_seed: u64,
+    /// Levels: light every hit pixel by the level's point lights (`light*` entities) with shadow
+    /// rays against the whole scene, trying every light (full mode) or the light list of the hit
+    /// point's cluster (PVS mode); `-o` writes the lit picture. The gate stays on primary rays.
+    #[arg(long)]
+    pub shadows: bool,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -175,22 +182,43 @@ fn walk_steps(
     step: f64,
     start: impl FnOnce() -> anyhow::Result<(DVec3, f64)>,
 ) -> anyhow::Result<Option<Vec<Step>>> {
-    let file = args.input.display();
     if let Some(points) = &p.path {
-        if p.view.is_some() || args.pose.is_some() || args.poses.is_some() {
-            bail!("{file}: --path takes no --view, --pose or --poses");
-        }
         return Ok(Some(walk::polyline(points, args.walk)));
     }
     let Some(n) = args.walk else { return Ok(None) };
-    if args.poses.is_some() || (p.view.is_some() && args.pose.is_some()) {
-        bail!("{file}: --walk starts from --view, --pose or the scene's own start, not --poses");
-    }
     let (eye, yaw) = match p.view {
         Some(eye) => (eye, p.look.0),
         None => start()?,
     };
     Ok(Some(walk::random_walk(bvh, eye, yaw, n, step, args.seed)))
+}
+
+/// Refuse camera flags that do not go together (`level`: the input is a level), before any work.
+fn check_cameras(args: &Args, p: &Parsed, level: bool) -> anyhow::Result<()> {
+    let file = args.input.display();
+    let named = [p.view.is_some(), args.pose.is_some(), args.poses.is_some()];
+    if p.path.is_some() && named.iter().any(|&n| n) {
+        bail!("{file}: --path takes no --view, --pose or --poses");
+    }
+    if args.walk.is_some() && (args.poses.is_some() || (p.view.is_some() && args.pose.is_some())) {
+        bail!("{file}: --walk starts from --view, --pose or the scene's own start, not --poses");
+    }
+    if !p.walks(args) && named.iter().filter(|&&n| n).count() != 1 {
+        bail!("{file}: give exactly one of --view, --pose, --poses, --walk, --path");
+    }
+    if !level && args.pose.is_some() {
+        bail!("{file}: --pose names a level's pose; a mesh takes --view, --poses, --walk or --path");
+    }
+    if !level && args.shadows {
+        bail!("{file}: --shadows lights a level by its light entities; a mesh has none");
+    }
+    if level && (args.cell.is_some() || args.fresh_gvs) {
+        bail!("{file}: --cell and --fresh-gvs are for meshes");
+    }
+    if !level && args.raycast_spacing.is_some() {
+        bail!("{file}: --raycast-spacing culls a level; a mesh has no runtime world");
+    }
+    Ok(())
 }
 
 /// The eye and yaw of the level's `--pose` (or `player_start` when `name` is `None`).
@@ -255,9 +283,6 @@ fn mesh_cameras(
     step: f64,
 ) -> anyhow::Result<Vec<Camera>> {
     let file = args.input.display();
-    if args.pose.is_some() {
-        bail!("{file}: --pose names a level's pose; a mesh takes --view, --poses, --walk or --path");
-    }
     let start = || {
         let eyes = scene.random_eyes(open, 1, args.seed);
         let &(eye, yaw, _) =
@@ -301,6 +326,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let (w, h) = args.size;
     // Every number first, then the memory, then the files: all before any work.
     let parsed = Parsed::of(args)?;
+    check_cameras(args, &parsed, is_level(&args.input))?;
     limits::fits_memory(
         &format!("a trace of --size {w}x{h}"),
         u64::from(w) * u64::from(h) * BYTES_PER_PIXEL,
@@ -311,9 +337,6 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     }
     let file = || args.input.display().to_string();
     if is_level(&args.input) {
-        if args.cell.is_some() || args.fresh_gvs {
-            bail!("{}: --cell and --fresh-gvs are for meshes", file());
-        }
         let level = load::load_level(&args.input, &crate::progress::Bars::new(true))?;
         let tree = BspTree::new(&level).with_context(file)?;
         let matrix = pvs::level_pvs(&level).with_context(file)?;
@@ -323,12 +346,20 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             Some(_) => Some(sightline_runtime::load::load_path(&args.input)?),
             None => None,
         };
-        let mut tracer = Tracer::Level { scene: Box::new(scene), matrix, cache: CellCache::default() };
+        let lights = if args.shadows {
+            Some(shadow::lights(&scene, &level.entities).with_context(|| format!("{}: entities", file()))?)
+        } else {
+            None
+        };
+        let mut tracer = Tracer::Level {
+            scene: Box::new(scene),
+            matrix,
+            cache: CellCache::default(),
+            lights,
+            lists: LightLists::default(),
+        };
         drive(args, &parsed, &mut tracer, &cams, world.as_ref(), json!({}))
     } else {
-        if args.raycast_spacing.is_some() {
-            bail!("{}: --raycast-spacing culls a level; a mesh has no runtime world", file());
-        }
         let input = args.input.to_str().with_context(|| format!("{}: not a UTF-8 name", file()))?;
         let (mesh, _) =
             sightline_gvs::scene::load(input, args.scene_seed, &crate::progress::Bars::new(true))?;
@@ -369,8 +400,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 
 /// The scene being traced, with its visible sets.
 enum Tracer<'a> {
-    /// A level: its triangles, its PVS and the sets of the clusters entered so far.
-    Level { scene: Box<LevelScene<'a>>, matrix: BitMatrix, cache: CellCache },
+    /// A level: its triangles, its PVS, the sets of the clusters entered so far, and with
+    /// `--shadows` its lights and the light lists of the clusters lit so far.
+    Level {
+        scene: Box<LevelScene<'a>>,
+        matrix: BitMatrix,
+        cache: CellCache,
+        lights: Option<Vec<Light>>,
+        lists: LightLists,
+    },
     /// A mesh: its triangles and grid, the GVS sets of the cells entered so far, and the set of
     /// the last camera's cell (the incremental update starts from it).
     Mesh { scene: Box<MeshScene<'a>>, cache: MeshCells, last: Option<Arc<MeshCellSet>> },
@@ -399,6 +437,19 @@ struct Shot {
     grazes: usize,
     mismatches: usize,
     listed: Vec<String>,
+    /// With `--shadows`: the whole scene's frame lit, and the lighting of both modes.
+    shadows: Option<Shadows>,
+}
+
+/// The lighting of one camera in both modes.
+struct Shadows {
+    /// The full mode's lighting (every light).
+    full: Lit,
+    /// Time and shadow rays of the PVS mode (per-cluster light lists).
+    pvs_time: std::time::Duration,
+    pvs_rays: u64,
+    /// Pixels whose two frames hit the same triangle but light it differently.
+    differ: usize,
 }
 
 /// Milliseconds of `d`.
@@ -409,9 +460,22 @@ fn ms(d: std::time::Duration) -> f64 {
 impl Tracer<'_> {
     fn trace(&mut self, cam: &Camera) -> Result<Shot, TraceError> {
         match self {
-            Tracer::Level { scene, matrix, cache } => {
+            Tracer::Level { scene, matrix, cache, lights, lists } => {
                 let t = trace_camera(scene, matrix, cache, cam)?;
                 let built = !t.cached;
+                let shadows = lights.as_deref().map(|lights| {
+                    let full = shadow::light(scene, &t.rays, &t.full, lights, None);
+                    let pvs = shadow::light(scene, &t.rays, &t.pvs, lights, Some((matrix, lists)));
+                    // Pixels whose two frames hit the same triangle (a tie hits another, lit
+                    // from another point) but light it differently.
+                    let same = |i: usize| match (t.full.hits[i], t.pvs.hits[i]) {
+                        (Some(a), Some(b)) => a.triangle == b.triangle,
+                        (a, b) => a.is_none() && b.is_none(),
+                    };
+                    let differ =
+                        (0..full.light.len()).filter(|&i| same(i) && full.light[i] != pvs.light[i]).count();
+                    Shadows { full, pvs_time: pvs.time, pvs_rays: pvs.shadow_rays, differ }
+                });
                 Ok(Shot {
                     cell: u64::from(t.eye_cluster),
                     eye_leaf: Some(t.eye_leaf),
@@ -426,6 +490,7 @@ impl Tracer<'_> {
                     grazes: t.gate.grazes,
                     mismatches: t.gate.mismatches,
                     listed: t.gate.listed.iter().map(ToString::to_string).collect(),
+                    shadows,
                     rays: t.rays,
                     full: t.full,
                     reduced: t.pvs,
@@ -449,11 +514,20 @@ impl Tracer<'_> {
                     grazes: t.gate.grazes,
                     mismatches: t.gate.mismatches,
                     listed: t.gate.listed.iter().map(ToString::to_string).collect(),
+                    shadows: None,
                     rays: t.rays,
                     full: t.full,
                     reduced: t.reduced,
                 })
             }
+        }
+    }
+
+    /// The picture of a shot's whole-scene frame (lit with `--shadows`).
+    fn picture(&self, t: &Shot) -> Image {
+        match (self, &t.shadows) {
+            (Tracer::Level { scene, .. }, Some(s)) => shadow::lit_picture(scene, &t.rays, &t.full, &s.full),
+            _ => picture(self.surfaces(), &t.rays, &t.full),
         }
     }
 
@@ -550,7 +624,7 @@ fn drive(
         }
         if let Some(out) = &args.output {
             let path = png_path(out, i, cams.len());
-            picture(tracer.surfaces(), &t.rays, &t.full).save(&path)?;
+            tracer.picture(&t).save(&path)?;
         }
         let speedup = t.full.time.as_secs_f64() / t.reduced.time.as_secs_f64().max(1e-9);
         if walks && !args.json {
@@ -586,6 +660,18 @@ fn drive(
                 t.ties,
                 t.grazes,
                 t.mismatches,
+            );
+        }
+        if let Some(sh) = &t.shadows
+            && !args.json
+        {
+            println!(
+                "{what} {i}: shadows: full {} rays in {:.2} ms, PVS light lists {} rays in {:.2} ms; {} pixels lit differently (same triangle)",
+                sh.full.shadow_rays,
+                ms(sh.full.time),
+                sh.pvs_rays,
+                ms(sh.pvs_time),
+                sh.differ
             );
         }
         for m in &t.listed {
@@ -646,6 +732,15 @@ fn drive(
             "mismatches": t.mismatches,
             "listed": t.listed,
         });
+        if let Some(sh) = &t.shadows {
+            record["shadows"] = json!({
+                "full_rays": sh.full.shadow_rays,
+                "full_ms": ms(sh.full.time),
+                "pvs_rays": sh.pvs_rays,
+                "pvs_ms": ms(sh.pvs_time),
+                "differ": sh.differ,
+            });
+        }
         if let Some(leaf) = t.eye_leaf {
             record["eye_leaf"] = json!(leaf);
             record["eye_cluster"] = json!(t.cell);
