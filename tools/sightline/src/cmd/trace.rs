@@ -16,6 +16,9 @@
 //! level, from a random open pose on a mesh) or `--path "x,y,z;x,y,z;..."` (its points, or N steps
 //! spread along it with `--walk N`); per step the cell change, the visible-set time, the BVH
 //! rebuild time and both render times, as a table or in JSON.
+//!
+//! `--shadows` (levels): shadow rays to the level's point lights, every light in the full mode, the
+//! light list of the hit point's cluster in the PVS mode ([`sightline_validate::trace::shadow`]).
 
 use std::ops::Bound::{Excluded, Unbounded};
 use std::path::{Path, PathBuf};
