@@ -28,6 +28,7 @@ mod runtime_real_maps;
 mod tb_layers;
 mod tb_profile;
 mod trace_gate;
+mod trace_mesh;
 mod unusable_bounds;
 mod validate_compiled;
 mod validate_reference;

@@ -192,3 +192,67 @@ fn runtime_pvs_walk_draws_every_face_the_trace_sees_on_real_levels() {
         }
     }
 }
+
+#[test]
+fn shadows_change_the_picture_and_light_both_modes_alike() {
+    let Some(path) = sightline_tests::shared_map("ericw/e1m1.vis.bsp") else { return };
+    let dir = std::env::temp_dir().join(format!("sightline-trace-shadows-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |shadows: bool| {
+        let png = dir.join(format!("view-{shadows}.png"));
+        let mut cmd = std::process::Command::new(sightline_tests::sightline_binary());
+        cmd.args(["trace", "--poses", "3", "--seed", "5", "--size", "64x48", "--json", "-o"])
+            .arg(&png)
+            .arg(&path);
+        if shadows {
+            cmd.arg("--shadows");
+        }
+        let out = cmd.output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let pictures: Vec<Vec<u8>> =
+            (0..3).map(|i| std::fs::read(dir.join(format!("view-{shadows}-{i}.png"))).unwrap()).collect();
+        (v, pictures)
+    };
+    let (plain, flat) = run(false);
+    let (lit, shaded) = run(true);
+    let mut rays = 0;
+    for (i, (p, q)) in
+        plain["poses"].as_array().unwrap().iter().zip(lit["poses"].as_array().unwrap()).enumerate()
+    {
+        assert!(p.get("shadows").is_none());
+        let s = &q["shadows"];
+        // The PVS mode tries only the lights of the hit point's cluster's PVS, and lights every
+        // pixel whose triangle both modes hit exactly as the full mode does.
+        assert_eq!(s["differ"], 0, "pose {i}: {s}");
+        rays += s["full_rays"].as_u64().unwrap();
+        assert_eq!(p["eye"], q["eye"]);
+        assert_ne!(flat[i], shaded[i], "pose {i}: the lit picture is another picture");
+    }
+    assert!(rays > 0, "E1M1's lights reach what the poses see");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn light_lists_hold_the_lights_a_clusters_pvs_names_and_cull_most() {
+    let Some(path) = sightline_tests::shared_map("ericw/e1m1.vis.bsp") else { return };
+    let level = load::load_level(&path, &sightline_validate::NoProgress).unwrap();
+    let tree = BspTree::new(&level).unwrap();
+    let pvs = level_pvs(&level).unwrap();
+    let scene = LevelScene::new(&tree).unwrap();
+    let lights = sightline_validate::trace::shadow::lights(&scene, &level.entities).unwrap();
+    assert!(lights.len() > 20, "E1M1 has its lights: {}", lights.len());
+    assert!(lights.iter().all(|l| l.value > 0.0));
+    let mut lists = sightline_validate::trace::shadow::LightLists::default();
+    let mut culled = 0;
+    for c in 0..pvs.len() as u32 {
+        let list = lists.get(&lights, &pvs, c);
+        for (l, light) in lights.iter().enumerate() {
+            let listed = list.binary_search(&(l as u32)).is_ok();
+            let seen = light.cluster.is_some_and(|lc| pvs.get(c as usize, lc as usize));
+            assert_eq!(listed, seen, "cluster {c}, light {l}");
+        }
+        culled += usize::from(list.len() * 2 < lights.len());
+    }
+    assert!(culled * 2 > pvs.len(), "most clusters see fewer than half the lights");
+}

@@ -87,6 +87,11 @@ const FLAGS: &[Flag] = &[
     flag("trace", "--raycast-spacing", "8", &["0", "8193"]),
     flag("trace", "--view", "0,0,64", &["0,0,nan", "1,2", "1,2,inf"]),
     flag("trace", "--look", "90,0", &["nan,0", "90"]),
+    flag("trace", "--walk", "2", &["0", "100001", "-1"]),
+    flag("trace", "--path", "0,0,64;0,32,64", &["1,2", "0,0,nan", "", ";;"]),
+    Flag { cmd: "trace", flag: "--step", good: "16", bad: &["0", "-1", "nan"], extra: &["--walk", "2"] },
+    flag("trace", "--cell", "8", &["0", "-1", "nan"]),
+    flag("trace", "--scene-seed", "3", &["18446744073709551616", "-1"]),
     flag("gvs", "--max-cells", "1", &["0", "1048577"]),
     flag("gvs", "--views", "1", &["10001", "-1", "18446744073709551616"]),
     flag("gvs", "--res", "16", &["8193"]),
@@ -142,6 +147,8 @@ fn base(cmd: &str, input: &str, flag: &str) -> Vec<String> {
     line.push(match cmd {
         "compile" => format!("{input}.map"),
         "vis" => format!("{input}.prt"),
+        // The mesh flags of `trace` on a mesh.
+        "trace" if flag == "--cell" => format!("{input}.obj"),
         _ => format!("{input}.slvl"),
     });
     let rest: &[&str] = match cmd {
@@ -150,7 +157,9 @@ fn base(cmd: &str, input: &str, flag: &str) -> Vec<String> {
         "render" => &["-o", "out.png", "--size", "64x48"],
         "gvs" => &["--cell", "leaves"],
         "trace" if flag == "--size" => &["--poses", "1"],
-        "trace" if flag == "--poses" || flag == "--view" => &["--size", "32x24"],
+        "trace" if ["--poses", "--view", "--walk", "--path", "--step"].contains(&flag) => {
+            &["--size", "32x24"]
+        }
         "trace" => &["--poses", "1", "--size", "32x24"],
         _ => &[],
     };

@@ -25,6 +25,9 @@ pub struct TriScene {
     pub face_of: Option<Vec<u32>>,
     /// View cells the scene suggests (`--cell auto`).
     pub suggested: Vec<Cell>,
+    /// Where a camera can stand (a generated scene's [`scenegen::Scene::open`]; empty: anywhere
+    /// in the bounds).
+    pub open: Vec<Cell>,
 }
 
 impl TriScene {
@@ -51,6 +54,7 @@ pub fn generated(kind: scenegen::Kind, size: u32, seed: u64) -> TriScene {
         triangles: s.triangles,
         face_of: None,
         suggested: s.cells.into_iter().map(|(a, b)| Cell::new(a, b)).collect(),
+        open: s.open.into_iter().map(|(a, b)| Cell::new(a, b)).collect(),
     }
 }
 
@@ -76,7 +80,7 @@ pub fn from_level(level: &Level) -> TriScene {
             face_of.push(fi as u32);
         }
     }
-    TriScene { triangles, face_of: Some(face_of), suggested: Vec::new() }
+    TriScene { triangles, face_of: Some(face_of), ..TriScene::default() }
 }
 
 /// The open leaves of `level` as view cells, each shrunk by `margin` on every side (so the cell
@@ -167,7 +171,7 @@ fn load_obj(path: &Path) -> Result<TriScene, LoadError> {
     let mesh = sightline_formats::obj::load_from_bytes(&read_input(path)?, &path.display().to_string())?;
     let triangles =
         (0..mesh.triangles.len()).filter_map(|i| mesh.triangle(i)).map(|t| t.map(|p| p.as_vec3())).collect();
-    Ok(TriScene { triangles, face_of: None, suggested: Vec::new() })
+    Ok(TriScene { triangles, ..TriScene::default() })
 }
 
 /// Read and validate the `.slvl` level at `path`.

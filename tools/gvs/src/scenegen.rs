@@ -29,7 +29,14 @@ pub struct Scene {
     pub triangles: Vec<[Vec3; 3]>,
     /// Suggested view cells as `(min, max)` boxes in open space.
     pub cells: Vec<(Vec3, Vec3)>,
+    /// Where a camera can stand, as `(min, max)` boxes: the city's streets at eye height
+    /// ([`EYE_HEIGHT`] give or take a quarter unit), the whole sphere box (a point inside a sphere
+    /// is not open; the boxes do not say so), a slab above the mesh.
+    pub open: Vec<(Vec3, Vec3)>,
 }
+
+/// Eye height above a city street.
+pub const EYE_HEIGHT: f32 = 1.75;
 
 /// Which generator, parsed from `gen:<kind>:<size>`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -243,7 +250,14 @@ pub fn city(n: usize, seed: u64) -> Scene {
             }
         }
     }
-    Scene { triangles: tris, cells }
+    let open = (0..n * n)
+        .filter(|&b| !solid[b])
+        .map(|b| {
+            let o = Vec3::new((b % n) as f32 * BLOCK, (b / n) as f32 * BLOCK, EYE_HEIGHT);
+            (o + Vec3::new(1.0, 1.0, -0.25), o + Vec3::new(BLOCK - 1.0, BLOCK - 1.0, 0.25))
+        })
+        .collect();
+    Scene { triangles: tris, cells, open }
 }
 
 /// Push a UV sphere: `stacks × slices` quads (triangles at the poles), 80 triangles, wound
@@ -305,7 +319,11 @@ pub fn spheres(n: usize, mixed: bool, seed: u64) -> Scene {
         }
         k += 1;
     }
-    Scene { triangles: tris, cells: centres.iter().map(|&m| (m - Vec3::ONE, m + Vec3::ONE)).collect() }
+    Scene {
+        triangles: tris,
+        cells: centres.iter().map(|&m| (m - Vec3::ONE, m + Vec3::ONE)).collect(),
+        open: vec![(Vec3::ZERO, Vec3::splat(SPHERE_BOX))],
+    }
 }
 
 /// A flat square grid of at least `n` triangles at `z = 0`, 100 units wide; the suggested cell is a
@@ -314,7 +332,11 @@ pub fn mesh(n: usize) -> Scene {
     let side = ((n as f64 / 2.0).sqrt().ceil() as usize).max(1);
     let mut tris = Vec::with_capacity(2 * side * side);
     grid(&mut tris, Vec3::ZERO, Vec3::X * 100.0, Vec3::Y * 100.0, side, side);
-    Scene { triangles: tris, cells: vec![(Vec3::new(45.0, 45.0, 10.0), Vec3::new(55.0, 55.0, 12.0))] }
+    Scene {
+        triangles: tris,
+        cells: vec![(Vec3::new(45.0, 45.0, 10.0), Vec3::new(55.0, 55.0, 12.0))],
+        open: vec![(Vec3::new(0.0, 0.0, 1.0), Vec3::new(100.0, 100.0, 5.0))],
+    }
 }
 
 #[cfg(test)]
@@ -371,11 +393,14 @@ mod tests {
     }
 
     #[test]
-    fn suggested_cells_are_empty_of_geometry() {
-        for scene in [city(15, 3), spheres(300, true, 2)] {
+    fn suggested_cells_and_city_streets_are_empty_of_geometry() {
+        for (k, scene) in [city(15, 3), spheres(300, true, 2)].into_iter().enumerate() {
             assert!(scene.cells.len() > 1);
+            // The city's streets too (the sphere box is open only outside its spheres).
+            let open: &[(Vec3, Vec3)] = if k == 0 { &scene.open } else { &[] };
+            assert!(k > 0 || open.len() > 15, "a street per maze cell at least");
             for t in &scene.triangles {
-                for &(lo, hi) in &scene.cells {
+                for &(lo, hi) in scene.cells.iter().chain(open) {
                     let tmin = t[0].min(t[1]).min(t[2]);
                     let tmax = t[0].max(t[1]).max(t[2]);
                     let overlap = tmin.cmplt(hi).all() && tmax.cmpgt(lo).all();

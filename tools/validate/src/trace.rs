@@ -1,4 +1,6 @@
-//! PVS-accelerated ray tracing with a correctness gate (the GVS thesis' §6.4 on levels).
+//! PVS-accelerated ray tracing with a correctness gate (the GVS thesis' §6.4), on levels and (in
+//! [`mesh`]) on triangle meshes, whose visible set is the GVS set of the eye's grid cell; [`walk`]
+//! makes camera paths for walkthroughs.
 //!
 //! Primary rays are cast twice on the same rays: against a BVH over the whole world (model 0's
 //! faces, fan-triangulated, [`scene::LevelScene`]) and against a BVH over only the faces the eye
@@ -28,11 +30,38 @@
 pub mod cells;
 pub mod frame;
 pub mod gate;
+pub mod mesh;
 pub mod scene;
+pub mod shadow;
+pub mod walk;
+
+use glam::{DVec3, Vec3};
 
 use crate::ValidateError;
 use crate::render::RenderError;
 pub use crate::render::view::Camera;
+
+/// What a traced scene is made of: triangles, each of a face (a level's face, or the triangle
+/// itself in a mesh).
+pub trait Surfaces: Sync {
+    /// Every triangle.
+    fn triangles(&self) -> &[[Vec3; 3]];
+    /// The face of triangle `t`.
+    fn face_of(&self, t: u32) -> Option<u32>;
+    /// True when a ray meets a triangle only from its front (`(v1 - v0) × (v2 - v0)` towards it).
+    fn one_sided(&self) -> bool;
+    /// True when face `face` is sky (drawn light blue).
+    fn is_sky(&self, face: u32) -> bool {
+        let _ = face;
+        false
+    }
+    /// Unit normal of triangle `t` (zero for a degenerate or unknown triangle).
+    fn normal(&self, t: u32) -> DVec3 {
+        self.triangles().get(t as usize).map_or(DVec3::ZERO, |[a, b, c]| {
+            (*b - *a).as_dvec3().cross((*c - *a).as_dvec3()).normalize_or_zero()
+        })
+    }
+}
 
 /// Why a level could not be traced.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -44,6 +73,18 @@ pub enum TraceError {
     /// The camera or picture is unusable (size, field of view, eye in solid or outside clusters).
     #[error(transparent)]
     Camera(#[from] RenderError),
+    /// The grid of view cells of a mesh is unusable (cell size).
+    #[error("view cells")]
+    Grid(#[from] sightline_gvs::cells::GridError),
+    /// The GVS parameters of a mesh's cell sets are unusable.
+    #[error("GVS parameters")]
+    Gvs(#[from] sightline_gvs::ParamError),
+    /// The eye of a mesh camera is outside the grid of view cells.
+    #[error("eye ({:.2}, {:.2}, {:.2}) is outside the grid of view cells", eye[0], eye[1], eye[2])]
+    EyeOutsideGrid {
+        /// The eye.
+        eye: [f64; 3],
+    },
 }
 
 use std::sync::Arc;

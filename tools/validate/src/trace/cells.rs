@@ -21,8 +21,10 @@ pub struct CellSet {
     pub faces: usize,
     /// The BVH over the set's triangles.
     pub bvh: Bvh,
-    /// Time to gather the set and build its BVH.
-    pub build: Duration,
+    /// Time to gather the set (the PVS row's clusters, their leaves' faces, their triangles).
+    pub gather: Duration,
+    /// Time to build its BVH.
+    pub bvh_build: Duration,
 }
 
 impl CellSet {
@@ -59,8 +61,15 @@ impl CellSet {
             triangles.extend(r);
         }
         let soup: Vec<_> = triangles.iter().map(|&t| scene.triangles()[t as usize]).collect();
+        let gather = start.elapsed();
+        let start = Instant::now();
         let bvh = Bvh::build(&soup);
-        CellSet { cluster, triangles, faces, bvh, build: start.elapsed() }
+        CellSet { cluster, triangles, faces, bvh, gather, bvh_build: start.elapsed() }
+    }
+
+    /// Time to gather the set and build its BVH.
+    pub fn build_time(&self) -> Duration {
+        self.gather + self.bvh_build
     }
 
     /// Bytes the set holds on the heap (its BVH and triangle map).

@@ -4,11 +4,9 @@ use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use sightline_formats::texture::TextureKind;
 use sightline_raycast::Bvh;
 
-use super::scene::LevelScene;
-use super::{Camera, TraceError};
+use super::{Camera, Surfaces, TraceError};
 use crate::render::RenderError;
 use crate::render::image::{Image, leaf_colour, shade};
 use crate::render::view::SKY;
@@ -79,17 +77,25 @@ impl Frame {
     }
 }
 
-/// Cast `rays` against `bvh` (faces are one-sided: a ray meets a face only from its front, as a
-/// Quake engine culls back faces), whose build triangle `i` is scene triangle `map(i)` (the identity
-/// for the whole scene).
-pub fn cast(scene: &LevelScene<'_>, bvh: &Bvh, map: Option<&[u32]>, rays: &Rays) -> Frame {
+/// Cast `rays` against `bvh` (one-sided when the scene's faces are, [`Surfaces::one_sided`]: a
+/// ray meets a face only from its front, as a Quake engine culls back faces), whose build triangle
+/// `i` is scene triangle `map(i)` (the identity for the whole scene).
+pub fn cast<S: Surfaces + ?Sized>(scene: &S, bvh: &Bvh, map: Option<&[u32]>, rays: &Rays) -> Frame {
     let width = rays.camera.width as usize;
+    let one_sided = scene.one_sided();
     let start = Instant::now();
     let local: Vec<Option<(f32, u32)>> = rays
         .dirs
         .par_chunks(width.max(1))
         .flat_map_iter(|row| {
-            row.iter().map(|&d| bvh.intersect_front(rays.origin, d, f32::INFINITY).map(|h| (h.t, h.triangle)))
+            row.iter().map(|&d| {
+                let hit = if one_sided {
+                    bvh.intersect_front(rays.origin, d, f32::INFINITY)
+                } else {
+                    bvh.intersect(rays.origin, d, f32::INFINITY)
+                };
+                hit.map(|h| (h.t, h.triangle))
+            })
         })
         .collect();
     let time = start.elapsed();
@@ -110,19 +116,13 @@ pub fn cast(scene: &LevelScene<'_>, bvh: &Bvh, map: Option<&[u32]>, rays: &Rays)
 /// The picture of a frame: each face in its own colour ([`leaf_colour`] of the face index; sky
 /// faces light blue), shaded by the angle of its triangle to a fixed light (two-sided); black where
 /// nothing is hit.
-pub fn picture(scene: &LevelScene<'_>, rays: &Rays, frame: &Frame) -> Image {
-    let level = scene.tree().level();
+pub fn picture<S: Surfaces + ?Sized>(scene: &S, rays: &Rays, frame: &Frame) -> Image {
     let mut image = Image::new(rays.camera.width, rays.camera.height, [0, 0, 0]);
     let light = LIGHT.normalize();
     for (p, h) in image.pixels.iter_mut().zip(&frame.hits) {
         let Some(h) = h else { continue };
-        let sky = level
-            .faces
-            .get(h.face as usize)
-            .and_then(|f| level.textures.get(f.texture as usize))
-            .is_some_and(|t| TextureKind::of(t) == TextureKind::Sky);
         let k = 0.45 + 0.55 * scene.normal(h.triangle).dot(light).abs();
-        *p = shade(if sky { SKY } else { leaf_colour(h.face) }, k);
+        *p = shade(if scene.is_sky(h.face) { SKY } else { leaf_colour(h.face) }, k);
     }
     image
 }

@@ -62,9 +62,10 @@ impl std::fmt::Display for Mismatch {
     }
 }
 
-/// The gate's verdict on one camera.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct GateReport {
+/// The gate's verdict on one camera; `M` describes a mismatch ([`Mismatch`] on levels,
+/// [`MeshMismatch`] on meshes).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GateReport<M = Mismatch> {
     /// Pixels compared.
     pub pixels: usize,
     /// Pixels where both hit the same face (or nothing).
@@ -72,61 +73,139 @@ pub struct GateReport {
     /// Pixels where different faces are hit at bit-equal distance (a shared edge; not a bug).
     pub ties: usize,
     /// Pixels where the seen face is missing from the PVS set but hit on its outline ([`GRAZE`]):
-    /// not a bug.
+    /// not a bug (levels only).
     pub grazes: usize,
     /// Pixels where the PVS set hides the seen surface: the visibility bugs.
     pub mismatches: usize,
     /// The first [`MAX_LISTED`] mismatches, row-major.
-    pub listed: Vec<Mismatch>,
+    pub listed: Vec<M>,
 }
 
-impl GateReport {
+impl<M> Default for GateReport<M> {
+    fn default() -> Self {
+        GateReport { pixels: 0, same: 0, ties: 0, grazes: 0, mismatches: 0, listed: Vec::new() }
+    }
+}
+
+impl<M> GateReport<M> {
     /// True when no pixel differs other than by a tie.
     pub fn passed(&self) -> bool {
         self.mismatches == 0
     }
 }
 
-/// Compare the whole scene's frame with the PVS set's on the same rays; the eye cluster is the
-/// caller's (reported beside this).
-pub fn compare(scene: &LevelScene<'_>, rays: &Rays, full: &Frame, pvs: &Frame) -> GateReport {
+/// What the caller makes of a pixel whose seen face the reduced frame lacks.
+enum Verdict<M> {
+    /// Not a bug ([`GRAZE`]).
+    Graze,
+    /// A visibility bug, described when the listing still has room.
+    Miss(Option<M>),
+}
+
+/// Count the pixels of `full` against `pvs`; `judge(pixel, full hit, pvs hit, describe)` rules on a
+/// pixel whose faces differ at different distances (`describe`: the listing has room).
+fn tally<M>(
+    full: &Frame,
+    pvs: &Frame,
+    mut judge: impl FnMut(usize, &PixelHit, Option<PixelHit>, bool) -> Verdict<M>,
+) -> GateReport<M> {
     let mut r = GateReport { pixels: full.hits.len(), ..GateReport::default() };
-    let width = rays.camera.width.max(1) as usize;
     for (i, (a, b)) in full.hits.iter().zip(&pvs.hits).enumerate() {
         match (a, b) {
             (None, None) => r.same += 1,
             (Some(a), Some(b)) if a.face == b.face => r.same += 1,
             (Some(a), Some(b)) if a.t == b.t => r.ties += 1,
             (None, Some(_)) => r.mismatches += 1, // impossible for a subset; counted, never listed
-            (Some(a), b) => {
-                let dir = rays.dirs[i].as_dvec3();
-                let point = rays.camera.eye + dir * f64::from(a.t);
-                let edge_distance = outline_distance(scene, a.face, point);
-                if edge_distance <= GRAZE.max(GRAZE_RELATIVE * (point - rays.camera.eye).length()) {
-                    r.grazes += 1;
-                    continue;
+            (Some(a), b) => match judge(i, a, *b, r.listed.len() < MAX_LISTED) {
+                Verdict::Graze => r.grazes += 1,
+                Verdict::Miss(m) => {
+                    r.mismatches += 1;
+                    r.listed.extend(m);
                 }
-                r.mismatches += 1;
-                if r.listed.len() < MAX_LISTED {
-                    let tree = scene.tree();
-                    let back = point - dir.normalize_or_zero() * 0.05;
-                    let point_leaf = tree.leaf_at(back);
-                    r.listed.push(Mismatch {
-                        x: (i % width) as u32,
-                        y: (i / width) as u32,
-                        full: *a,
-                        pvs: *b,
-                        point: point.to_array(),
-                        point_leaf,
-                        point_cluster: tree.cluster(point_leaf),
-                        face_clusters: scene.face_clusters(a.face),
-                        edge_distance,
-                    });
-                }
-            }
+            },
         }
     }
     r
+}
+
+/// Compare the whole scene's frame with the PVS set's on the same rays; the eye cluster is the
+/// caller's (reported beside this).
+pub fn compare(scene: &LevelScene<'_>, rays: &Rays, full: &Frame, pvs: &Frame) -> GateReport {
+    let width = rays.camera.width.max(1) as usize;
+    tally(full, pvs, |i, a, b, describe| {
+        let dir = rays.dirs[i].as_dvec3();
+        let point = rays.camera.eye + dir * f64::from(a.t);
+        let edge_distance = outline_distance(scene, a.face, point);
+        if edge_distance <= GRAZE.max(GRAZE_RELATIVE * (point - rays.camera.eye).length()) {
+            return Verdict::Graze;
+        }
+        Verdict::Miss(describe.then(|| {
+            let tree = scene.tree();
+            let back = point - dir.normalize_or_zero() * 0.05;
+            let point_leaf = tree.leaf_at(back);
+            Mismatch {
+                x: (i % width) as u32,
+                y: (i / width) as u32,
+                full: *a,
+                pvs: b,
+                point: point.to_array(),
+                point_leaf,
+                point_cluster: tree.cluster(point_leaf),
+                face_clusters: scene.face_clusters(a.face),
+                edge_distance,
+            }
+        }))
+    })
+}
+
+/// A pixel of a mesh whose whole-scene triangle is missing from the eye cell's set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshMismatch {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row.
+    pub y: u32,
+    /// The whole scene's hit.
+    pub full: PixelHit,
+    /// The cell set's hit (`None`: its ray hits nothing).
+    pub set: Option<PixelHit>,
+    /// The hit point of the whole scene's hit.
+    pub point: [f64; 3],
+}
+
+impl std::fmt::Display for MeshMismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = self.point;
+        write!(
+            f,
+            "pixel ({}, {}): triangle {} at ({:.2}, {:.2}, {:.2}) is missing from the cell set, which shows {}",
+            self.x,
+            self.y,
+            self.full.triangle,
+            p[0],
+            p[1],
+            p[2],
+            match self.set {
+                Some(h) => format!("triangle {} farther away", h.triangle),
+                None => "nothing".into(),
+            }
+        )
+    }
+}
+
+/// Compare a mesh's whole-scene frame with its cell set's on the same rays: every pixel whose
+/// triangles differ at different distances is a mismatch (no graze: a mesh has no portals).
+pub fn compare_mesh(rays: &Rays, full: &Frame, set: &Frame) -> GateReport<MeshMismatch> {
+    let width = rays.camera.width.max(1) as usize;
+    tally(full, set, |i, a, b, describe| {
+        Verdict::Miss(describe.then(|| MeshMismatch {
+            x: (i % width) as u32,
+            y: (i / width) as u32,
+            full: *a,
+            set: b,
+            point: (rays.camera.eye + rays.dirs[i].as_dvec3() * f64::from(a.t)).to_array(),
+        }))
+    })
 }
 
 /// Distance from `p` (on the face's plane) to the outline of face `face` (infinite for a face the

@@ -4,9 +4,11 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
+use sightline_formats::texture::TextureKind;
 use sightline_raycast::Bvh;
 
+use super::Surfaces;
 use crate::ValidateError;
 use crate::bsp::BspTree;
 use crate::mesh::{fan, world_faces};
@@ -89,13 +91,6 @@ impl<'a> LevelScene<'a> {
         self.build
     }
 
-    /// Unit normal of triangle `t` (zero for a degenerate or unknown triangle).
-    pub fn normal(&self, t: u32) -> DVec3 {
-        self.triangles.get(t as usize).map_or(DVec3::ZERO, |[a, b, c]| {
-            (*b - *a).as_dvec3().cross((*c - *a).as_dvec3()).normalize_or_zero()
-        })
-    }
-
     /// Clusters of the leaves that list face `face` (ascending, each once).
     pub fn face_clusters(&self, face: u32) -> Vec<u32> {
         let level = self.tree.level();
@@ -113,5 +108,28 @@ impl<'a> LevelScene<'a> {
         out.sort_unstable();
         out.dedup();
         out
+    }
+}
+
+impl Surfaces for LevelScene<'_> {
+    fn triangles(&self) -> &[[Vec3; 3]] {
+        LevelScene::triangles(self)
+    }
+
+    fn face_of(&self, t: u32) -> Option<u32> {
+        LevelScene::face_of(self, t)
+    }
+
+    fn one_sided(&self) -> bool {
+        true
+    }
+
+    fn is_sky(&self, face: u32) -> bool {
+        let level = self.tree.level();
+        level
+            .faces
+            .get(face as usize)
+            .and_then(|f| level.textures.get(f.texture as usize))
+            .is_some_and(|t| TextureKind::of(t) == TextureKind::Sky)
     }
 }
