@@ -205,6 +205,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             backends: &chosen,
             repeats: args.repeats,
             rays,
+            cull_back_faces: args.cull_back_faces,
             json: args.json,
         };
         return protocol::run(&setup, &poses);

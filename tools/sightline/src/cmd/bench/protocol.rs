@@ -112,13 +112,13 @@ fn visible_pixels(scene: &LevelScene<'_>, cam: &Camera, faces: usize) -> anyhow:
     Ok(pixels)
 }
 
-/// Time `backend` on `cam` and compare its faces with the picture's `pixels` per face.
-fn measure(world: &World, backend: &dyn Backend, cam: &Camera, repeats: usize, pixels: &[u32]) -> Row {
+/// Time `backend` on `cam` (`setup.repeats` times) and compare its faces with the picture's `pixels` per face.
+fn measure(world: &World, backend: &dyn Backend, cam: &Camera, setup: &Setup<'_>, pixels: &[u32]) -> Row {
     let mut scratch = Scratch::new(world);
     let mut out = Visible::for_world(world);
-    let view = cam.view();
+    let view = cam.view().with_back_face_culling(setup.cull_back_faces);
     backend.cull(world, &view, &mut scratch, &mut out);
-    let mut times: Vec<u64> = (0..repeats)
+    let mut times: Vec<u64> = (0..setup.repeats)
         .map(|_| {
             let start = Instant::now();
             backend.cull(world, &view, &mut scratch, &mut out);
@@ -170,6 +170,8 @@ pub struct Setup<'a> {
     pub repeats: usize,
     /// The ray-casting backend as the other rows run it (its spacing is swept besides).
     pub rays: RayCast,
+    /// Leave out back faces in the walk (`--cull-back-faces`).
+    pub cull_back_faces: bool,
     /// Print JSON instead of a table.
     pub json: bool,
 }
@@ -186,13 +188,12 @@ pub fn run(setup: &Setup<'_>, poses: &[Pose]) -> anyhow::Result<Outcome> {
         let cam = &pose.camera;
         let pixels = visible_pixels(&scene, cam, world.num_faces())
             .with_context(|| format!("{}: pose {i}", file()))?;
-        let rows: Vec<Row> =
-            setup.backends.iter().map(|b| measure(world, *b, cam, setup.repeats, &pixels)).collect();
+        let rows: Vec<Row> = setup.backends.iter().map(|b| measure(world, *b, cam, setup, &pixels)).collect();
         let sweep: Vec<Row> = SPACINGS
             .iter()
             .map(|&n| {
                 let rc = RayCast { spacing: n, ..setup.rays };
-                Row { spacing: Some(n), ..measure(world, &rc, cam, setup.repeats, &pixels) }
+                Row { spacing: Some(n), ..measure(world, &rc, cam, setup, &pixels) }
             })
             .collect();
         reports.push((pose, pvs_leaves(world, cam), pixels.iter().filter(|&&p| p > 0).count(), rows, sweep));
