@@ -3,6 +3,9 @@
 //! Every backend takes a [`World`](crate::World), a [`View`](crate::View) and the caller's
 //! [`Scratch`](crate::Scratch), and fills a [`Visible`](crate::Visible) with leaves and faces,
 //! front to back. Backends:
+//! - [`none::NoCulling`] (`none`): every open leaf and its faces, whatever the view (the
+//!   baseline).
+//! - [`frustum::FrustumOnly`] (`frustum`): the frustum walk over every open leaf, no visibility.
 //! - [`pvs::Pvs`] (the default): the eye cluster's PVS (a pruned tree built at load), then the
 //!   frustum walk.
 //! - [`portal::Portal`]: nothing precomputed; recursion through the level's portals, narrowing the
@@ -19,7 +22,9 @@
 //! [`Backend`] (and an entry in [`all`] to be offered by name).
 
 mod api;
+pub mod frustum;
 pub mod gvs;
+pub mod none;
 pub mod portal;
 pub mod pvs;
 pub mod raycast;
@@ -28,7 +33,14 @@ pub use api::Backend;
 
 /// Every backend, default first (check [`Backend::supports`] for a given world).
 pub fn all() -> &'static [&'static dyn Backend] {
-    &[&pvs::Pvs, &portal::Portal, &gvs::Gvs, &raycast::RayCast::DEFAULT]
+    &[
+        &pvs::Pvs,
+        &portal::Portal,
+        &gvs::Gvs,
+        &raycast::RayCast::DEFAULT,
+        &frustum::FrustumOnly,
+        &none::NoCulling,
+    ]
 }
 
 /// The backend called `name`.

@@ -1,6 +1,7 @@
 //! End-to-end tests over the crates and the binary, in one test binary (one link instead of one
 //! per file). `hostile_inputs` stays a binary of its own: it installs a counting global allocator.
 
+mod bench_protocol;
 mod brace_scan;
 mod bsp_roundtrip;
 mod bundled_expectations;

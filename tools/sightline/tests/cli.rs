@@ -895,11 +895,15 @@ fn bench_and_vis_read_a_crlf_portal_file_alike() {
     let (bsp, prt) = tiny_bsp();
     let path = dir.join("tiny.bsp");
     std::fs::write(&path, &bsp).expect("write");
-    assert_eq!(bench_backends(&path), ["pvs", "raycast"], "no portal file: no portal backend");
+    assert_eq!(
+        bench_backends(&path),
+        ["pvs", "raycast", "frustum", "none"],
+        "no portal file: no portal backend"
+    );
     std::fs::write(dir.join("tiny.prt"), prt.replace('\n', "\r\n")).expect("write");
     assert_eq!(
         bench_backends(&path),
-        ["pvs", "portal", "raycast"],
+        ["pvs", "portal", "raycast", "frustum", "none"],
         "the CRLF PRT1 gives the portal backend its portal"
     );
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
@@ -924,7 +928,7 @@ fn vis_and_bench_find_the_portal_file_of_a_vis_bsp_by_one_rule() {
     std::fs::write(dir.join("tiny.prt"), &prt).expect("write");
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
-    assert_eq!(bench_backends(&path), ["pvs", "portal", "raycast"]);
+    assert_eq!(bench_backends(&path), ["pvs", "portal", "raycast", "frustum", "none"]);
     // NAME.vis.prt comes first: a PRT2 there is what both use (vis reads it, the portal backend
     // needs PRT1 and so does not run).
     let prt2 = "PRT2\n2\n2\n1\n4 0 1 (0 -64 0) (0 64 0) (0 64 64) (0 -64 64)\n0 -1\n1 -1\n";
@@ -932,7 +936,7 @@ fn vis_and_bench_find_the_portal_file_of_a_vis_bsp_by_one_rule() {
     let o = run(&["vis", s(&path), "--threads", "1", "--json"]);
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     assert_eq!(stdout_json(&o)["prt_format"], "PRT2");
-    assert_eq!(bench_backends(&path), ["pvs", "raycast"]);
+    assert_eq!(bench_backends(&path), ["pvs", "raycast", "frustum", "none"]);
 }
 
 #[test]

@@ -11,6 +11,13 @@
 //! The GVS backend is measured when the level carries GVS cells (`sightline gvs ... -o`). The
 //! ray-casting backend is aggressive (it may hide visible leaves): the table says so, and its
 //! JSON report has `"conservative": false`.
+//!
+//! With `--poses-file` (or `--save-poses`, which picks and writes the poses first) the command runs
+//! the culling thesis' protocol on saved poses instead ([`protocol`]; the file format is in
+//! [`poses_file`]).
+
+mod poses_file;
+mod protocol;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -25,7 +32,7 @@ use sightline_runtime::{Camera, Scratch, Visible, World, load, poses};
 use crate::outcome::Outcome;
 
 /// What `sightline bench` does: its line in `sightline --help` and the first line of its own help.
-pub const ABOUT: &str = "Benchmark the runtime backends on random camera poses";
+pub const ABOUT: &str = "Benchmark the runtime backends on random or saved camera poses";
 
 /// Arguments of `sightline bench`.
 #[derive(Debug, clap::Args)]
@@ -62,6 +69,21 @@ pub struct Args {
     /// would.
     #[arg(long)]
     pub cull_back_faces: bool,
+    /// Run the saved-poses protocol on the poses of FILE (lines `X Y Z YAW PITCH`, `#` comments)
+    /// instead of random poses: per pose and backend, fastest and median culling time, faces
+    /// submitted, and visible faces (hit by a 640 × 480 ray cast) submitted and missed; the
+    /// ray-casting backend casts every frame and is also timed at spacings 5, 10, 15, 20.
+    #[arg(long, value_name = "FILE", conflicts_with = "save_poses")]
+    pub poses_file: Option<PathBuf>,
+    /// Pick from `--frames` random poses (`--seed`) the one with the fewest PVS leaves (occluded)
+    /// and the one with the most (open), write them to FILE as `--poses-file` reads it, then run
+    /// the saved-poses protocol on them.
+    #[arg(long, value_name = "FILE")]
+    pub save_poses: Option<PathBuf>,
+    /// Saved-poses protocol: timed culls per backend and pose (the fastest and the median are
+    /// reported), 1 to 100000.
+    #[arg(long, default_value_t = 101, value_parser = RangedU64ValueParser::<usize>::new().range(1..=100_000))]
+    pub repeats: usize,
 }
 
 /// Most frames (`--frames`).
@@ -121,6 +143,11 @@ struct Report {
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let need = args.frames as u64 * BYTES_PER_FRAME;
     crate::limits::fits_memory(&format!("--frames {}", args.frames), need, 1)?;
+    // The poses file is read (and its errors reported) before the level is loaded.
+    let saved = args.poses_file.as_deref().map(poses_file::read).transpose()?;
+    if let Some(out) = &args.save_poses {
+        crate::output::check(&[args.input.as_path()], &[out.as_path()])?;
+    }
     // `load_path`'s errors name the file (and the portal file beside a `.bsp`).
     let mut world = load::load_path_with(&args.input, &crate::progress::Bars::new(true))?;
     if !world.has_vis() {
@@ -132,8 +159,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     if args.no_pvs_trees {
         world.drop_pvs_trees();
     }
-    let cams = poses::random_cameras(&world, args.seed, args.frames);
-    anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
+    let cams = match &saved {
+        Some(_) => Vec::new(),
+        None => poses::random_cameras(&world, args.seed, args.frames),
+    };
+    anyhow::ensure!(
+        saved.is_some() || !cams.is_empty(),
+        "{}: no open leaf to put a camera in",
+        args.input.display()
+    );
     let unsupported: Vec<(&str, &str)> = backend::all()
         .iter()
         .filter(|b| !b.supports(&world))
@@ -155,9 +189,28 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             })
             .collect::<anyhow::Result<_>>()?
     };
-    let rays = RayCast { spacing: args.ray_spacing, adaptive: !args.ray_always, ..RayCast::DEFAULT };
+    let protocol = saved.is_some() || args.save_poses.is_some();
+    // The protocol measures ray casting itself: no falling back to the PVS walk.
+    let rays =
+        RayCast { spacing: args.ray_spacing, adaptive: !args.ray_always && !protocol, ..RayCast::DEFAULT };
     let chosen: Vec<&dyn Backend> =
         chosen.into_iter().map(|b| if b.name() == rays.name() { &rays as &dyn Backend } else { b }).collect();
+    if protocol {
+        let poses = match saved {
+            Some(p) => p,
+            None => save_poses(args, &world, &cams)?,
+        };
+        let setup = protocol::Setup {
+            input: &args.input,
+            world: &world,
+            backends: &chosen,
+            repeats: args.repeats,
+            rays,
+            cull_back_faces: args.cull_back_faces,
+            json: args.json,
+        };
+        return protocol::run(&setup, &poses);
+    }
     let reports: Vec<Report> =
         chosen.iter().map(|b| measure(&world, *b, &cams, args.cull_back_faces)).collect();
     if args.json {
@@ -186,6 +239,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }
     }
     Ok(Outcome::Clean)
+}
+
+/// `--save-poses`: pick the occluded and the open pose of `cams` and write them.
+fn save_poses(args: &Args, world: &World, cams: &[Camera]) -> anyhow::Result<Vec<poses_file::Pose>> {
+    let path = args.save_poses.as_deref().context("--save-poses names no file")?;
+    anyhow::ensure!(!cams.is_empty(), "{}: no open leaf to put a camera in", args.input.display());
+    let poses = protocol::pick(world, cams);
+    sightline_job::atomic::write_file_atomic(path, poses_file::write(&poses).as_bytes())
+        .with_context(|| format!("{}: cannot write the poses file", path.display()))?;
+    Ok(poses)
 }
 
 /// Why a backend does not support a level.
