@@ -38,9 +38,34 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from vis_side_by_side import run_once  # noqa: E402
 
 
+GNU_TIME = "/usr/bin/time"
+
+
 def run_limited(argv, cwd, timeout, stdout_path=None):
     """Like `run_once`, stopped after `timeout` seconds (status None), stdout kept in
-    `stdout_path` when given. Returns (cpu_seconds, wall_seconds, status, peak_resident_kib)."""
+    `stdout_path` when given. Returns (cpu_seconds, wall_seconds, status, peak_resident_kib).
+
+    Linux keeps a process's peak resident size across exec, so a child spawned from this Python
+    process reports at least Python's own size; with GNU time installed the child runs under it
+    (a small process) and the peak is the one time reports."""
+    peak_file = None
+    if os.access(GNU_TIME, os.X_OK):
+        peak_file = os.path.join(cwd, ".peak_kib")
+        argv = [GNU_TIME, "-q", "-f", "%M", "-o", peak_file] + argv
+    cpu, wall, status, rss = run_spawned(argv, cwd, timeout, stdout_path)
+    if peak_file:
+        try:
+            with open(peak_file) as f:
+                rss = int(f.read().split()[-1])
+            os.remove(peak_file)
+        except (OSError, ValueError, IndexError):
+            pass
+    return cpu, wall, status, rss
+
+
+def run_spawned(argv, cwd, timeout, stdout_path):
+    """Spawn argv in cwd, stopped after `timeout` seconds (status None), stdout kept in
+    `stdout_path` when given; (cpu_seconds, wall_seconds, status, peak_resident_kib)."""
     if timeout is None and stdout_path is None:
         return run_once(argv, cwd)
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -51,7 +76,8 @@ def run_limited(argv, cwd, timeout, stdout_path=None):
         old = os.getcwd()
         os.chdir(cwd)
         try:
-            pid = os.posix_spawn(argv[0], argv, os.environ, file_actions=actions)
+            # A process group of its own, so a stop reaches the program under GNU time too.
+            pid = os.posix_spawn(argv[0], argv, os.environ, file_actions=actions, setpgroup=0)
         finally:
             os.chdir(old)
         stopped = False
@@ -60,7 +86,7 @@ def run_limited(argv, cwd, timeout, stdout_path=None):
             if got == pid:
                 break
             if timeout is not None and time.perf_counter() - start > timeout and not stopped:
-                os.kill(pid, signal.SIGKILL)
+                os.killpg(pid, signal.SIGKILL)
                 stopped = True
             time.sleep(0.1)
         wall = time.perf_counter() - start
