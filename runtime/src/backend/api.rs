@@ -15,7 +15,8 @@ pub trait Backend: Send + Sync + std::fmt::Debug {
     fn supports(&self, world: &World) -> bool;
 
     /// True when the backend never hides a visible leaf or face (every backend but the
-    /// ray-casting one, whose sparse rays may miss what lies between them).
+    /// ray-casting one, whose sparse rays may miss what lies between them, and the GVS one,
+    /// whose sets are sampled).
     fn conservative(&self) -> bool {
         true
     }

@@ -1,6 +1,7 @@
 //! The GVS backend: the faces guided visibility sampling found visible from the eye's view cell
 //! ([`GvsCells`]), frustum-culled per face box and sorted front to back by the distance from the
-//! eye to the face box.
+//! eye to the face box. **Aggressive, not conservative**: sampling can leave out a face of which a
+//! few pixels show.
 //!
 //! [`Gvs`], the value in [`super::all`], answers with the cells the world was loaded with
 //! ([`World::gvs_cells`]).
@@ -46,6 +47,12 @@ impl Backend for Gvs {
 
     fn supports(&self, world: &World) -> bool {
         world.gvs_cells().is_some_and(|c| fits(c, world))
+    }
+
+    /// False: GVS finds a cell's faces by sampling rays, so a face no sample reached is left out
+    /// even where a few pixels of it show (the thesis' pixel error).
+    fn conservative(&self) -> bool {
+        false
     }
 
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {

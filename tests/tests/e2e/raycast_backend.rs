@@ -47,6 +47,7 @@ fn adaptive_raycast_frames_are_the_rays_or_the_pvs_walks() {
     let world = load::load_path(&path).unwrap();
     let always = RayCast { adaptive: false, ..RayCast::DEFAULT };
     assert!(!RayCast::DEFAULT.conservative() && Pvs.conservative());
+    assert!(!sightline_runtime::backend::gvs::Gvs.conservative(), "GVS sets are sampled");
     let (mut s1, mut s2) = (Scratch::new(&world), Scratch::new(&world));
     let (mut rays, mut pvs, mut adaptive) =
         (Visible::for_world(&world), Visible::for_world(&world), Visible::for_world(&world));
