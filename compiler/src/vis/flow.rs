@@ -26,6 +26,13 @@
 //! skipping it keeps as much or more, and the trial depends on the batches folded before the
 //! flow only, so the result does not depend on threads.
 //!
+//! Rows: a frame lists its open words, those of `might` holding a portal not yet covered; they
+//! are a subset of the frame below's (`might` only narrows along a chain, `vis` only grows), so
+//! finding them, testing whether a target leads to anything new and the beam cull read those few
+//! words rather than the whole row; and a frame's row is built only once its target passed every
+//! clip. On a room of 125 tiny brushes (every leaf sees every leaf, a row spans 66 words of which
+//! about 3 are open) this cuts vis's instructions by 8 % for the same chains and PVS.
+//!
 //! Seeds: clusters known visible from the source's cluster count as seen from the start: those
 //! joined to it by a certified line ([`super::certify`]), and those the finished flows of its
 //! other portals counted seen. A flow records both for later flows ([`super::seeds`]): the pairs
@@ -273,9 +280,17 @@ impl Flow {
         // cluster or beyond which something unseen might lie) the branch ends here, before the
         // frame's separators are built. The loop below skips the same targets.
         let Self { frames, seen, vis, .. } = self;
-        let here = &mut frames[d];
-        here.open.clear();
-        here.open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0));
+        // A word open here was open in the frame below: `might` only narrows along the chain and
+        // `vis` only grows, so only the words of that frame's list need a look.
+        let (below, rest) = frames.split_at_mut(d);
+        let here = &mut rest[0];
+        let mut open = std::mem::take(&mut here.open);
+        open.clear();
+        match below.last() {
+            Some(b) => open.extend(b.open.iter().copied().filter(|&w| here.might[w] & !vis[w] != 0)),
+            None => open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0)),
+        }
+        here.open = open;
         let here = &frames[d];
         let worth = g.cluster_portals[leaf].iter().any(|&pi| {
             let pi = pi as usize;
@@ -308,30 +323,15 @@ impl Flow {
             let (lo, hi) = self.frames.split_at_mut(d + 1);
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
-            // Skipped before its row is built.
-            if !prev.worth(g, pi, trow, &self.seen, &self.vis) {
+            // Worth testing: into an unseen cluster, or with a portal not yet covered beyond it
+            // (`Frame::worth`; only the frame's open words can hold one). Without the latter,
+            // only whether `p` itself is visible is left to decide. `deeper` is found before `p`
+            // covers its own portals.
+            let unseen = !bits::get(&self.seen, p.leaf as usize);
+            let deeper = prev.open.iter().any(|&w| prev.might[w] & trow[w] & !self.vis[w] != 0);
+            if !unseen && !deeper {
                 continue;
             }
-            let mut more = 0u64;
-            let (mut first, mut last) = (prev.hi, prev.lo);
-            let range = prev.lo..prev.hi;
-            let words_in = next.might[range.clone()]
-                .iter_mut()
-                .zip(&prev.might[range.clone()])
-                .zip(&trow[range.clone()])
-                .zip(&self.vis[range.clone()]);
-            for (w, (((m, &a), &b), &v)) in range.zip(words_in) {
-                *m = a & b;
-                more |= *m & !v;
-                if *m != 0 {
-                    first = first.min(w);
-                    last = w + 1;
-                }
-            }
-            (next.lo, next.hi) = if first < last { (first, last) } else { (0, 0) };
-            // Nothing new beyond `p`: only whether `p` itself (into an unseen cluster, see
-            // `Frame::worth`) is visible is left to decide.
-            let deeper = more != 0;
             // Tests 3 and 4 already narrowed `prev.source` in `cull_beyond_beam`: a frame gets
             // here only with a target worth testing, so with something new in `might`.
             debug_assert!(!prev.narrow);
@@ -378,6 +378,9 @@ impl Flow {
                 }
             }
             if deeper {
+                // The row of the frame beyond `p`, built only once `p` passed every test.
+                let (lo, hi) = self.frames.split_at_mut(d + 1);
+                narrow_row(&lo[d], &mut hi[0], trow);
                 self.recurse(g, test, seeds, d + 1, head);
             }
         }
@@ -473,9 +476,9 @@ impl Flow {
     /// enough for pruning. Once the flow's first [`BEAM_TRIAL`] culls have dropped nothing, only
     /// the source is narrowed. Returns `false` when no source is left.
     fn cull_beyond_beam(&mut self, g: &Graph, d: usize, head: &Head) -> bool {
-        let (lo, hi) = (self.frames[d].lo, self.frames[d].hi);
-        let any_new = (lo..hi).any(|w| self.frames[d].might[w] & !self.vis[w] != 0);
-        if !any_new {
+        // The frame's open words ([`Frame::open`], found on entering it, `vis` unchanged since)
+        // are the words holding a portal not yet covered.
+        if self.frames[d].open.is_empty() {
             return true;
         }
         if self.frames[d].narrow {
@@ -492,7 +495,7 @@ impl Flow {
         let f = &mut self.frames[d];
         f.ensure_separators(self.level, g.convex);
         let mut dropped = false;
-        for w in lo..hi {
+        for &w in &f.open {
             for ti in bits::word_ones(w, f.might[w] & !self.vis[w]) {
                 let [x, y, z, r] = g.spheres[ti];
                 let center = DVec3::new(x, y, z);
@@ -514,6 +517,23 @@ impl Flow {
         self.culled |= dropped;
         true
     }
+}
+
+/// `next`'s `might`: `prev`'s narrowed by `trow` (the row of the portal that leads to `next`),
+/// with its bounds of nonzero words.
+fn narrow_row(prev: &Frame, next: &mut Frame, trow: &[u64]) {
+    let (mut first, mut last) = (prev.hi, prev.lo);
+    let range = prev.lo..prev.hi;
+    let words_in =
+        next.might[range.clone()].iter_mut().zip(&prev.might[range.clone()]).zip(&trow[range.clone()]);
+    for (w, ((m, &a), &b)) in range.zip(words_in) {
+        *m = a & b;
+        if *m != 0 {
+            first = first.min(w);
+            last = w + 1;
+        }
+    }
+    (next.lo, next.hi) = if first < last { (first, last) } else { (0, 0) };
 }
 
 /// Cluster `c` is visible: marked in `seen`, and every portal into it covered in `vis`.
