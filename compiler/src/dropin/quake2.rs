@@ -2,9 +2,9 @@
 //! computes cluster rows, [`crate::phs`] adds the PHS, and the visibility lump is replaced
 //! ([`sightline_formats::bsp::q2`]). With [`DropInOptions::phs_only`] only the PHS of a vised
 //! file is recomputed, every PVS byte kept. A `func_viscluster` brush entity merges the
-//! clusters whose leaves lie in its model's box ([`crate::viscluster::level_merge`]). The far plane culls by cluster boxes made from the
-//! file's leaves ([`visdata::level_cluster_boxes`]) before the PHS is formed; ambient options do
-//! not apply (Quake 2 has no ambient levels).
+//! clusters whose leaves lie in its model's box (`viscluster::level_merge`). The far plane culls
+//! by cluster boxes made from the file's leaves ([`visdata::level_cluster_boxes`]) before the PHS
+//! is formed; ambient options do not apply (Quake 2 has no ambient levels).
 
 use std::path::Path;
 use std::time::Instant;

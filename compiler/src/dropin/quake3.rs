@@ -5,7 +5,7 @@
 //! clusters, so vis runs on it as on a Quake 1 PRT1 and the rows are stored uncompressed, as
 //! [`q3::vis_lump`] lays them out. The far plane and the PHS are refused, and the ambient options
 //! do not apply (Quake 3 has no ambient levels). A `func_viscluster` brush entity merges the
-//! clusters whose leaves lie in its model's box ([`crate::viscluster::level_merge`]).
+//! clusters whose leaves lie in its model's box (`viscluster::level_merge`).
 
 use std::path::Path;
 use std::time::Instant;
