@@ -57,6 +57,7 @@ mod budget;
 mod certify;
 pub mod coarsen;
 mod error;
+pub mod estimate;
 pub mod farplane;
 mod flow;
 mod graph;
@@ -81,14 +82,15 @@ use sightline_job::progress::{Progress, phase};
 
 pub use base::COPLANAR_EPSILON;
 pub use budget::{
-    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, flow_batch, memory_estimate, work_estimate,
+    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, WORK_PER_SECOND, flow_batch, memory_estimate,
+    work_estimate,
 };
 pub use error::VisError;
 pub use flow::MAX_FLOW_DEPTH;
 pub use options::VisOptions;
 pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 pub use rows::ROWS_SERIAL_WORDS;
-pub use stats::{VisResult, VisStats};
+pub use stats::{MergedGroup, VisResult, VisStats};
 
 use budget::{check_memory, check_work, thread_count, work_limit};
 use error::panic_error;
@@ -96,8 +98,9 @@ use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
 use schedule::flow_all;
 
 /// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
-/// per finished portal (from worker threads), a note when clusters are merged to fit the limits
-/// and a warning, once done, that the merged PVS is looser; [`VisOptions::cancel`] stops the run at its next batch boundary.
+/// per finished portal (from worker threads), a note when clusters are merged to fit the limits,
+/// the flow's estimated time when it is long ([`estimate`], refined at each tenth of its
+/// predicted work) and a warning, once done, that the merged PVS is looser (and by how much); [`VisOptions::cancel`] stops the run at its next batch boundary.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     // The thread count and the memory limit, each found once.
     let opts = &checked_input(prt, opts)?;
@@ -131,14 +134,21 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     let mut result = std::panic::catch_unwind(AssertUnwindSafe(compute)).map_err(panic_error)??;
     if let Some(c) = coarse {
         result = coarsen::expand(result, prt, &c.new_id);
+        let largest = c.stats.largest_groups.first().map_or_else(String::new, |k| {
+            let [x, y, z] = k.centre;
+            format!("; the largest merged group holds {} leaves around ({x:.0} {y:.0} {z:.0})", k.leaves)
+        });
         progress.warn(&format!(
-            "vis did not fit its memory or work limit: merged {} clusters into {} ({} of {} portals left, estimates {} and {:.1e} portal tests); the PVS is looser",
+            "vis did not fit its memory or work limit: merged {} clusters into {} ({} of {} portals left, estimates {} and {:.1e} portal tests); the PVS is looser: {} visible leaf pairs, at most {:.1} times the {} an unmerged PVS has at least{largest}",
             c.stats.clusters_before,
             c.stats.clusters_after,
             c.stats.portals_after,
             c.stats.portals_before,
             crate::memory::format_size(c.stats.estimate),
-            c.stats.work as f64
+            c.stats.work as f64,
+            result.stats.visible_pairs,
+            result.stats.visible_pairs as f64 / c.stats.fine_pairs_lower.max(1) as f64,
+            c.stats.fine_pairs_lower
         ));
         result.stats.coarsened = Some(c.stats);
     }
@@ -193,7 +203,7 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
     let n = g.portals.len();
     let words = bits::words(n);
     let base_phase = phase(progress, "vis base", n as u64);
-    let base::Mightsee { rows: might, clusters: might_clusters } =
+    let base::Mightsee { rows: might, clusters: might_clusters, tests: base_tests } =
         base::mightsee(&g, words, opts.threads, &|| base_phase.advance(1));
     drop(base_phase);
     let row_threads = rows_threads(prt, words, opts.threads);
@@ -214,6 +224,7 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
         level: opts.level,
         fast: opts.fast,
         base_seconds,
+        base_tests,
         avg_mightsee,
         ..VisStats::default()
     };

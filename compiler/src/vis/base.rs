@@ -88,6 +88,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
     let mut rows = vec![0u64; n * words];
     let out = Out::new(g);
     let reach: Vec<AtomicU64> = (0..nc * cluster_words).map(|_| AtomicU64::new(0)).collect();
+    let tests = AtomicU64::new(0);
     // Chunks of `words` words, one per portal (none without portals).
     super::parallel::each_row(
         threads,
@@ -101,9 +102,11 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
             stack.push(p.leaf);
             bits::set(entered, p.leaf as usize);
             let (pn, pd, pc, pr) = (p.plane.normal, p.plane.dist, p.center, p.radius);
+            let mut met = 0u64;
             while let Some(c) = stack.pop() {
                 let c = c as usize;
                 let range = out.start[c] as usize..out.start[c + 1] as usize;
+                met += range.len() as u64;
                 let entries = out.plane_sphere[range.clone()].iter().zip(&out.portal[range.clone()]);
                 for ((&[nx, ny, nz, nd, x, y, z, radius], &ti), &next) in entries.zip(&out.leaf[range]) {
                     // `t` is a candidate for `p` when some point of `t` lies in front of `p` and
@@ -141,6 +144,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
             for (w, &e) in entered.iter().enumerate().filter(|&(_, &e)| e != 0) {
                 reach[owner + w].fetch_or(e, Ordering::Relaxed);
             }
+            tests.fetch_add(met, Ordering::Relaxed);
             progress();
         },
     );
@@ -148,7 +152,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
     for c in 0..nc {
         bits::set(&mut clusters[c * cluster_words..(c + 1) * cluster_words], c);
     }
-    Mightsee { rows, clusters }
+    Mightsee { rows, clusters, tests: tests.into_inner() }
 }
 
 /// What base vis finds.
@@ -159,4 +163,7 @@ pub struct Mightsee {
     /// portals entered, which are the clusters its portals lead to and those they might see (so
     /// the cluster rows the `mightsee` rows give, before `M ∧ Mᵀ`).
     pub clusters: Vec<u64>,
+    /// Portal pairs tested (each portal out of each cluster a flood entered): the work base vis
+    /// did, which [`super::estimate`] turns into this run's speed.
+    pub tests: u64,
 }

@@ -142,6 +142,13 @@ const PORTAL_SCAN_WORK: u128 = 8;
 /// it; 10,000 tiny brushes in one room (260,304 portals, 43,651 clusters) at 9.3 × 10¹².
 pub const COARSEN_MAX_WORK: u64 = 200_000_000_000;
 
+/// Portal tests per second of one core, the fixed rate a time budget (`sightline --max-time`)
+/// becomes a [`VisOptions::max_work`] by: the same on every machine, so a given budget merges
+/// alike everywhere and the PVS stays deterministic. On the shared maps (2 threads, 2026-11-29)
+/// the run did 2–6 × 10⁸ of [`work_estimate`]'s tests per CPU second, so a run inside a budget
+/// of `T` takes at most about `T` of one core there, usually a half to a fifth of it.
+pub const WORK_PER_SECOND: u64 = 100_000_000;
+
 /// An estimate of the work a vis of `prt` does, in portal tests, from the counts alone: base vis
 /// tests every one-way portal against at most every other (`one_way²`); the flow, in a room where
 /// every cluster sees every other, follows at least one chain per (one-way portal, cluster), each

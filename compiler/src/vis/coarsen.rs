@@ -36,7 +36,7 @@ use glam::DVec3;
 use sightline_formats::bits;
 use sightline_formats::prt::{PortalFile, PrtFormat, PrtPortal};
 
-pub use super::stats::CoarsenStats;
+pub use super::stats::{CoarsenStats, MergedGroup};
 
 use super::budget::Counts;
 use super::options::VisOptions;
@@ -122,7 +122,11 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
                 cell,
                 estimate,
                 work,
+                fine_pairs_lower: fine_pairs_lower(prt),
+                pairs_within_groups: 0,
+                largest_groups: Vec::new(),
             };
+            let stats = looseness(prt, &new_id, groups, stats);
             return Some(Coarse { prt: coarse, new_id, stats });
         }
         if cell > span {
@@ -132,6 +136,77 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
         cell *= GROWTH;
     }
     None
+}
+
+/// Merged groups [`CoarsenStats::largest_groups`] lists.
+pub const LARGEST_GROUPS: usize = 5;
+
+/// Leaves per cluster of `prt`.
+fn cluster_leaves(prt: &PortalFile, clusters: usize, id: impl Fn(u32) -> usize) -> Vec<u64> {
+    let mut leaves = vec![0u64; clusters];
+    for &c in &prt.leaf_clusters {
+        leaves[id(c)] += 1;
+    }
+    leaves
+}
+
+/// [`CoarsenStats::fine_pairs_lower`]: per cluster, its leaves times the leaves of itself and of
+/// its distinct portal neighbours.
+fn fine_pairs_lower(prt: &PortalFile) -> u64 {
+    let nc = prt.num_clusters as usize;
+    let leaves = cluster_leaves(prt, nc, |c| c as usize);
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); nc];
+    for p in &prt.portals {
+        let [a, b] = p.leaves;
+        if a != b {
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
+    }
+    let mut total = 0u64;
+    for (c, list) in neighbours.iter_mut().enumerate() {
+        list.sort_unstable();
+        list.dedup();
+        let seen = leaves[c] + list.iter().map(|&k| leaves[k as usize]).sum::<u64>();
+        total = total.saturating_add(leaves[c].saturating_mul(seen));
+    }
+    total
+}
+
+/// `stats` with [`CoarsenStats::pairs_within_groups`] and [`CoarsenStats::largest_groups`] of the
+/// merge `new_id` (of `groups`) filled in.
+fn looseness(prt: &PortalFile, new_id: &[u32], groups: u32, mut stats: CoarsenStats) -> CoarsenStats {
+    let g = groups as usize;
+    let leaves = cluster_leaves(prt, g, |c| new_id[c as usize] as usize);
+    stats.pairs_within_groups = leaves.iter().fold(0u64, |a, &l| a.saturating_add(l.saturating_mul(l)));
+    let mut members = vec![0u32; g];
+    let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; g];
+    for (c, b) in self::bounds(prt).into_iter().enumerate() {
+        let k = new_id[c] as usize;
+        members[k] += 1;
+        if let Some((lo, hi)) = b {
+            let e = bounds[k].get_or_insert((lo, hi));
+            *e = (e.0.min(lo), e.1.max(hi));
+        }
+    }
+    // Most leaves first, then the lower group number.
+    let mut by_leaves: Vec<usize> = (0..g).filter(|&k| members[k] > 1).collect();
+    by_leaves.sort_by_key(|&k| (std::cmp::Reverse(leaves[k]), k));
+    stats.largest_groups = by_leaves
+        .into_iter()
+        .take(LARGEST_GROUPS)
+        .map(|k| {
+            let (lo, hi) = bounds[k].unwrap_or((DVec3::ZERO, DVec3::ZERO));
+            MergedGroup {
+                leaves: leaves[k] as u32,
+                clusters: members[k],
+                mins: lo.to_array(),
+                maxs: hi.to_array(),
+                centre: ((lo + hi) * 0.5).to_array(),
+            }
+        })
+        .collect();
+    stats
 }
 
 /// The centre of each cluster's portal windings' bounds (`None` for a cluster without portals).

@@ -15,7 +15,7 @@ use super::budget::flow_batch;
 use super::error::{VisError, panic_error};
 use super::options::VisOptions;
 use super::stats::VisStats;
-use super::{flow, graph, parallel, plan, seeds, state, symmetry};
+use super::{estimate, flow, graph, parallel, plan, seeds, state, symmetry};
 
 /// Hash of the input and of what changes flow rows: the options and the run's `batch` size
 /// (with [`VisOptions::waves`], the wave count and the whole batch size too: waves of more than
@@ -43,6 +43,11 @@ pub(super) fn flow_all(
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
     let order = plan::processing_order(&might, words, n);
+    // Each position's predicted cost, from its `mightsee` count (before the flow narrows it).
+    let weights: Vec<u64> = order
+        .iter()
+        .map(|&p| estimate::weight(sightline_formats::bits::count(&might[p * words..(p + 1) * words])))
+        .collect();
     // The flow narrows the `mightsee` rows in place.
     let mut test = might;
     symmetry::tighten_all(&mut test, words, n);
@@ -77,10 +82,23 @@ pub(super) fn flow_all(
             None => state::State::new(want.input_hash, n, words, nc),
         });
     }
+    // The estimate, for the portals left.
+    stats.flow_estimate_work = weights[done..].iter().fold(0, |a, &w| a.saturating_add(w));
+    stats.flow_estimate_seconds =
+        estimate::flow_seconds(stats.flow_estimate_work, n, stats.base_seconds, stats.base_tests);
+    let say = stats.flow_estimate_seconds >= estimate::SAY_SECONDS;
+    if say {
+        progress.note(&format!(
+            "vis flow: estimated {} for {} portals (from base vis's speed on this run)",
+            sightline_job::progress::format_seconds(stats.flow_estimate_seconds),
+            n - done
+        ));
+    }
+    let refine = estimate::Refine::new(weights, done, say);
     let flow_phase = phase(progress, "vis flow", n as u64);
     flow_phase.advance(done as u64);
-    let run = Run { g, order: &order, words, n, batch, opts, progress: &flow_phase };
-    let test = run.batches(Rows { test, seeds, quiet }, done, log, stats)?;
+    let run = Run { g, order: &order, words, n, batch, opts, progress: &flow_phase, notes: progress };
+    let test = run.batches(Rows { test, seeds, quiet }, done, log, refine, stats)?;
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
@@ -108,6 +126,8 @@ struct Run<'a> {
     batch: usize,
     opts: &'a VisOptions,
     progress: &'a Phase<'a>,
+    /// Where the refined estimates are said.
+    notes: &'a dyn Progress,
 }
 
 /// The batch in flight and what its last finisher needs.
@@ -218,6 +238,8 @@ struct Boundary<'s> {
     log: Option<state::State>,
     last_save: Instant,
     outcome: Option<VisError>,
+    /// The flow's estimate, refined at each boundary.
+    refine: estimate::Refine,
 }
 
 impl Run<'_> {
@@ -232,6 +254,7 @@ impl Run<'_> {
         rows: Rows,
         done: usize,
         log: Option<state::State>,
+        refine: estimate::Refine,
         stats: &mut VisStats,
     ) -> Result<Vec<u64>, VisError> {
         let test = RwLock::new(rows);
@@ -246,7 +269,7 @@ impl Run<'_> {
             wake: Condvar::new(),
             sleepers: AtomicUsize::new(0),
         };
-        let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None });
+        let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None, refine });
         // One worker on each of the run's threads (this one and its helpers), or on this one.
         parallel::on_every_thread(self.opts.threads, || {
             let work = || self.worker(done, &test, &slots, &cursor, &boundary);
@@ -353,6 +376,10 @@ impl Run<'_> {
             }
         }
         let done = batch_end;
+        if let Some(line) = b.refine.boundary(done) {
+            self.notes.note(&line);
+        }
+        b.stats.flow_refined_seconds = b.refine.at_tenth;
         let cancelled = self.opts.cancel.is_cancelled();
         let stop = (self.opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
         if let (Some(path), Some(log)) = (&self.opts.state, &b.log)

@@ -39,6 +39,19 @@ pub struct VisStats {
     pub work_estimate: u64,
     /// Seconds in base vis.
     pub base_seconds: f64,
+    /// Portal pairs base vis tested: with `base_seconds`, this run's speed, which
+    /// [`flow_estimate_seconds`](Self::flow_estimate_seconds) is scaled by.
+    pub base_tests: u64,
+    /// The flow's predicted work ([`estimate::flow_work`](super::estimate::flow_work) of the
+    /// portals left to flow, from their `mightsee`), 0 without a flow.
+    pub flow_estimate_work: u64,
+    /// The first estimate of `flow_seconds`, made before the flow from base vis's speed
+    /// ([`estimate::flow_seconds`](super::estimate::flow_seconds)); its accuracy is measured in
+    /// `docs/benchmarks.md`.
+    pub flow_estimate_seconds: f64,
+    /// The estimate of `flow_seconds` refined once a tenth of the predicted work was done
+    /// (elapsed time scaled by the predicted work left), when the flow got that far.
+    pub flow_refined_seconds: Option<f64>,
     /// Seconds in the flow.
     pub flow_seconds: f64,
     /// Seconds building cluster rows.
@@ -159,6 +172,31 @@ pub struct CoarsenStats {
     pub estimate: u64,
     /// [`work_estimate`](super::work_estimate) of the run on the merged clusters, in portal tests.
     pub work: u64,
+    /// Leaf pairs any PVS of the input holds (each leaf sees the leaves of its own cluster and of
+    /// the clusters a portal joins it to): `visible_pairs` over this bounds how much looser the
+    /// merged PVS is than an unmerged one could be (an upper bound of the ratio; the real one is
+    /// lower).
+    pub fine_pairs_lower: u64,
+    /// Leaf pairs the merged groups alone make visible (every leaf of a group sees the group).
+    pub pairs_within_groups: u64,
+    /// The merged groups with the most leaves (at most [`LARGEST_GROUPS`](super::coarsen::LARGEST_GROUPS), most leaves first): where the PVS
+    /// got looser.
+    pub largest_groups: Vec<MergedGroup>,
+}
+
+/// A group of input clusters merged into one ([`CoarsenStats::largest_groups`]).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct MergedGroup {
+    /// Vis leaves in it.
+    pub leaves: u32,
+    /// Input clusters in it.
+    pub clusters: u32,
+    /// Lowest corner of its clusters' portal bounds (map units).
+    pub mins: [f64; 3],
+    /// Highest corner.
+    pub maxs: [f64; 3],
+    /// Centre of those bounds.
+    pub centre: [f64; 3],
 }
 
 /// What a merge found ([`VisStats::merged`]).

@@ -665,3 +665,37 @@ fn a_state_of_other_waves_is_refused_even_at_a_common_boundary() {
     assert_eq!(resumed.rows, whole.rows, "resumed with its own waves");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// On generated rooms and a pillar room (compiled here), coarsening to a quarter of the work
+/// estimate keeps every pair the unmerged PVS has (the result is a superset), is looser, and its
+/// looseness report holds: the lower bound of unmerged pairs is at most the unmerged PVS, the
+/// groups' own pairs at most the merged one, the largest groups listed most leaves first.
+/// The flow's estimate is reported with the real time.
+#[test]
+fn coarsened_generated_rooms_keep_every_pair_and_report_their_looseness() {
+    use sightline_tests::mapgen::{MapGenParams, generate};
+    let rooms = generate(&MapGenParams { rooms_x: 4, rooms_y: 4, storeys: 2, seed: 7 });
+    for (file, text) in [("rooms.map", rooms), ("pillar.map", sightline_tests::shapes::pillar_room(60))] {
+        let map = sightline_formats::map::parse(&text, file).expect("generated maps parse");
+        let source = crate::Source::Map { map, file: file.to_string() };
+        let prt = crate::compile(&source, &crate::CompileOptions::default(), &none()).expect("compiles").prt;
+        let opts = VisOptions { threads: 1, ..VisOptions::default() };
+        let fine = run(&prt, &opts, &none()).expect("vis");
+        assert!(fine.stats.base_tests > 0 && fine.stats.flow_estimate_work >= prt.portals.len() as u64);
+        assert!(fine.stats.flow_estimate_seconds > 0.0, "{file}: {:?}", fine.stats);
+        let limit = work_estimate(&prt, &opts) / 4;
+        let coarse = run(&prt, &VisOptions { max_work: Some(limit), coarsen: true, ..opts }, &none())
+            .expect("coarsened");
+        let c = coarse.stats.coarsened.clone().expect("coarsened");
+        assert_eq!(missed_pairs(&fine, &coarse), 0, "{file}: the merged PVS lost a pair");
+        assert!(coarse.stats.visible_pairs > fine.stats.visible_pairs, "{file}: not looser");
+        assert!(0 < c.fine_pairs_lower && c.fine_pairs_lower <= fine.stats.visible_pairs, "{file}: {c:?}");
+        assert!(c.pairs_within_groups <= coarse.stats.visible_pairs, "{file}: {c:?}");
+        assert!(!c.largest_groups.is_empty() && c.largest_groups.len() <= coarsen::LARGEST_GROUPS);
+        assert!(c.largest_groups.windows(2).all(|w| w[0].leaves >= w[1].leaves), "{file}: {c:?}");
+        for g in &c.largest_groups {
+            assert!(g.clusters > 1 && g.leaves >= g.clusters, "{file}: {g:?}");
+            assert!((0..3).all(|a| g.mins[a] <= g.centre[a] && g.centre[a] <= g.maxs[a]), "{file}: {g:?}");
+        }
+    }
+}

@@ -25,6 +25,13 @@ pub trait Progress: Sync {
     }
 }
 
+/// Seconds as progress lines say them: whole seconds (`12 s`), or minutes and seconds from a
+/// minute on (`4 min 05 s`).
+pub fn format_seconds(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    if s < 60 { format!("{s} s") } else { format!("{} min {:02} s", s / 60, s % 60) }
+}
+
 /// A [`Progress`] that shows nothing.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct NoProgress;

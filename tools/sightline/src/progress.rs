@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sightline_job::progress::Progress;
+use sightline_job::progress::format_seconds as seconds;
 
 /// A bar of `len` steps labelled `phase`; hidden when `quiet` or when stderr is not a terminal.
 pub fn bar(phase: &str, len: u64, quiet: bool) -> ProgressBar {
@@ -74,12 +75,6 @@ impl Plain {
             format!("{}: done ({} steps) in {}", self.phase, self.done, seconds(elapsed.as_secs_f64()))
         })
     }
-}
-
-/// Seconds for a progress line: whole seconds, or minutes and seconds from a minute on.
-fn seconds(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
-    if s < 60 { format!("{s} s") } else { format!("{} min {:02} s", s / 60, s % 60) }
 }
 
 /// How a phase is shown.

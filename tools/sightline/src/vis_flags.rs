@@ -35,6 +35,12 @@ pub struct VisFlags {
     /// portals; about 10^8 tests take a second of one core.
     #[arg(long, value_name = "TESTS", value_parser = parse_count)]
     pub max_work: Option<u64>,
+    /// A work limit given as time (`90s`, `15m`, `1h30m`, `2h`; a bare number is seconds): the
+    /// limit `--max-work` sets to 10^8 portal tests per second, a fixed rate, so the same
+    /// budget merges alike on every machine (deterministic output) but is not a promise of wall
+    /// time: on a 2-core test machine a vis inside it took a half to a fifth of the time given.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration, conflicts_with = "max_work")]
+    pub max_time: Option<f64>,
     /// Over the memory or work limit, merge clusters into coarser ones until the vis fits instead
     /// of refusing: a looser PVS (never hiding a visible leaf), reported with a warning. Without
     /// `--max-work` it merges down to 2e11 portal tests (under an hour of one core).
@@ -54,6 +60,38 @@ fn parse_count(s: &str) -> Result<u64, String> {
     }
 }
 
+/// Seconds for `--max-time`: numbers with units `h`, `m`, `s` in that order (`1h30m`, `15m`,
+/// `90s`, `1.5h`), or a bare number of seconds; more than zero, at most a year.
+fn parse_duration(s: &str) -> Result<f64, String> {
+    let bad = || format!("`{s}` is not a duration (90s, 15m, 1h30m, 2h, or seconds)");
+    let t = s.trim();
+    if let Ok(v) = t.parse::<f64>() {
+        return (v.is_finite() && v > 0.0 && v <= YEAR).then_some(v).ok_or_else(bad);
+    }
+    let (mut total, mut rest, mut last_unit) = (0.0, t, 0usize);
+    while !rest.is_empty() {
+        let end = rest.find(|c: char| !(c.is_ascii_digit() || c == '.')).ok_or_else(bad)?;
+        let value: f64 = rest[..end].parse().map_err(|_| bad())?;
+        let unit = rest[end..].chars().next().ok_or_else(bad)?;
+        let (rank, scale) = match unit {
+            'h' => (1, 3600.0),
+            'm' => (2, 60.0),
+            's' => (3, 1.0),
+            _ => return Err(bad()),
+        };
+        if rank <= last_unit {
+            return Err(bad());
+        }
+        last_unit = rank;
+        total += value * scale;
+        rest = &rest[end + 1..];
+    }
+    (last_unit > 0 && total.is_finite() && total > 0.0 && total <= YEAR).then_some(total).ok_or_else(bad)
+}
+
+/// The longest `--max-time`, in seconds.
+const YEAR: f64 = 31_536_000.0;
+
 impl Default for VisFlags {
     /// The command-line defaults: full vis at level 4, no state file.
     fn default() -> Self {
@@ -65,6 +103,7 @@ impl Default for VisFlags {
             stop_after: None,
             max_memory: None,
             max_work: None,
+            max_time: None,
             coarsen: false,
         }
     }
@@ -81,9 +120,33 @@ impl VisFlags {
             stop_after: self.stop_after,
             cancel: crate::interrupt::cancel(),
             max_memory: self.max_memory,
-            max_work: self.max_work,
+            max_work: self
+                .max_work
+                .or(self.max_time.map(|t| (t * sightline_compiler::vis::WORK_PER_SECOND as f64) as u64)),
             coarsen: self.coarsen,
             ..VisOptions::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_parse_with_units_in_order_and_nothing_else() {
+        for (text, want) in [
+            ("90", 90.0),
+            ("90s", 90.0),
+            ("15m", 900.0),
+            ("1h30m", 5400.0),
+            ("1.5h", 5400.0),
+            ("2h5s", 7205.0),
+        ] {
+            assert_eq!(parse_duration(text), Ok(want), "{text}");
+        }
+        for text in ["", "0", "-5m", "15x", "m", "5m1h", "1m1m", "nan", "inf", "1e9", "h", "1h 5m"] {
+            assert!(parse_duration(text).is_err(), "{text:?} parsed");
         }
     }
 }

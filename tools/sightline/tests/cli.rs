@@ -1512,3 +1512,63 @@ fn vis_finds_the_portal_file_beside_a_bsp_whose_name_is_not_utf8() {
     assert!(error_line(&o).contains("names its map in UTF-8"), "{}", stderr(&o));
     assert!(!dir.join(OsStr::from_bytes(b"m\xff.vis")).exists());
 }
+
+/// `--json` of `sightline compile` and `sightline vis` carries the flow's first time estimate
+/// (made from base vis's speed before the flow) beside the real time; `--max-time` is a work
+/// limit spelled in time (10^8 portal tests a second): under it with `--coarsen` clusters merge,
+/// and the report says how much looser the PVS is and where; bad durations exit 2.
+#[test]
+fn json_carries_the_flow_estimate_and_max_time_coarsens_with_a_looseness_report() {
+    let dir = temp_dir("estimate");
+    let map = dir.join("rooms.map");
+    let params = sightline_tests::mapgen::MapGenParams { rooms_x: 4, rooms_y: 4, storeys: 2, seed: 7 };
+    std::fs::write(&map, sightline_tests::mapgen::generate(&params)).expect("write map");
+    let o = run(&["compile", s(&map), "--json", "--threads", "2"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let fine = stdout_json(&o);
+    let v = &fine["vis"];
+    assert!(v["base_tests"].as_u64().expect("base_tests") > 0, "{v}");
+    assert!(v["flow_estimate_work"].as_u64().expect("flow_estimate_work") > 0, "{v}");
+    assert!(v["flow_estimate_seconds"].as_f64().expect("flow_estimate_seconds") > 0.0, "{v}");
+    assert!(v["flow_seconds"].as_f64().expect("flow_seconds") > 0.0, "{v}");
+    let prt = dir.join("rooms.prt");
+    let o = run(&["vis", s(&prt), "--json", "--threads", "2"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let vis = stdout_json(&o);
+    assert_eq!(vis["vis"]["flow_estimate_work"], v["flow_estimate_work"], "one estimate for one input");
+    let need = v["work_estimate"].as_u64().expect("work_estimate");
+    // A budget a tenth of the estimate's time at the fixed rate.
+    let budget = format!("{}s", need as f64 / 1e8 / 10.0);
+    let refused = run(&["compile", s(&map), "--json", "--max-time", &budget]);
+    assert_eq!(code(&refused), 2, "{}", stderr(&refused));
+    assert!(stderr(&refused).contains("rerun with --coarsen"), "{}", stderr(&refused));
+    let o = run(&["compile", s(&map), "--json", "--max-time", &budget, "--coarsen", "--threads", "2"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let coarse = stdout_json(&o);
+    let c = &coarse["vis"]["coarsened"];
+    assert!(c["work"].as_u64().expect("work") <= need / 10, "{c}");
+    let pairs = coarse["vis"]["visible_pairs"].as_u64().expect("visible_pairs");
+    let lower = c["fine_pairs_lower"].as_u64().expect("fine_pairs_lower");
+    let fine_pairs = v["visible_pairs"].as_u64().expect("visible_pairs");
+    assert!(0 < lower && lower <= fine_pairs && fine_pairs < pairs, "{lower} {fine_pairs} {pairs}");
+    assert!(c["pairs_within_groups"].as_u64().expect("pairs_within_groups") <= pairs, "{c}");
+    let groups = c["largest_groups"].as_array().expect("largest_groups");
+    assert!(!groups.is_empty() && groups.len() <= 5, "{c}");
+    let leaves: Vec<u64> = groups.iter().map(|g| g["leaves"].as_u64().expect("leaves")).collect();
+    assert!(leaves.windows(2).all(|w| w[0] >= w[1]), "most leaves first: {leaves:?}");
+    for g in groups {
+        assert!(g["clusters"].as_u64().expect("clusters") > 1, "{g}");
+        for axis in 0..3 {
+            let at = |k: &str| g[k][axis].as_f64().expect("coordinate");
+            assert!(at("mins") <= at("centre") && at("centre") <= at("maxs"), "{g}");
+        }
+    }
+    for bad in ["15x", "0", "-5m", "5m1h", "soon"] {
+        let o = run(&["compile", s(&map), "--max-time", bad]);
+        assert_eq!(code(&o), 2, "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("is not a duration"), "{bad}: {}", stderr(&o));
+    }
+    let both = run(&["vis", s(&prt), "--max-time", "15m", "--max-work", "2e11"]);
+    assert_eq!(code(&both), 2, "{}", stderr(&both));
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}

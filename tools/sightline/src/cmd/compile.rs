@@ -190,9 +190,20 @@ fn report(args: &Args, c: &Compiled, out: &Path, prt: Option<&Path>, pts: &Path)
         }
         if let Some(k) = &v.coarsened {
             println!(
-                "  vis: merged {} clusters into {} to fit its memory or work limit (--coarsen): the PVS is looser",
-                k.clusters_before, k.clusters_after
+                "  vis: merged {} clusters into {} to fit its memory or work limit (--coarsen): the PVS is looser, {} visible leaf pairs against at least {} unmerged (at most {:.1} times)",
+                k.clusters_before,
+                k.clusters_after,
+                v.visible_pairs,
+                k.fine_pairs_lower,
+                v.visible_pairs as f64 / k.fine_pairs_lower.max(1) as f64
             );
+            for g in &k.largest_groups {
+                let [x, y, z] = g.centre;
+                println!(
+                    "  vis: merged group of {} leaves ({} clusters) around ({x:.0} {y:.0} {z:.0})",
+                    g.leaves, g.clusters
+                );
+            }
         }
     } else {
         println!("  no vis: the level has no PVS");

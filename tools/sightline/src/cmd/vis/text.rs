@@ -43,7 +43,7 @@ pub(super) fn quake(r: &QuakeReport) -> String {
          portal chains visited: {chains}{resumed}\n\
          {extra}\
          compressed PVS: {bytes} bytes -> {output}\n\
-         time: read {read:.3} s, base {base:.3} s, flow {flow:.3} s, rows {rows:.3} s, write {write:.3} s, total {total:.3} s\n",
+         time: read {read:.3} s, base {base:.3} s, flow {flow:.3} s{estimated}, rows {rows:.3} s, write {write:.3} s, total {total:.3} s\n",
         input = r.input,
         fmt = r.prt_format,
         leaves = v.leaves,
@@ -71,6 +71,11 @@ pub(super) fn quake(r: &QuakeReport) -> String {
         read = r.read_seconds,
         base = v.base_seconds,
         flow = v.flow_seconds,
+        estimated = if v.flow_estimate_work > 0 {
+            format!(" (estimated {:.3} s)", v.flow_estimate_seconds)
+        } else {
+            String::new()
+        },
         rows = v.rows_seconds,
         write = r.write_seconds,
         total = r.total_seconds,
