@@ -47,7 +47,7 @@ use super::stats::VisResult;
 pub(crate) struct Limits {
     /// Bytes ([`super::memory_estimate`] plus the expanded rows).
     pub memory: u64,
-    /// Portal tests ([`super::work_estimate`]).
+    /// Portal tests, base-vis tests weighed as the limits weigh them (`budget::limit_work`).
     pub work: u64,
 }
 
@@ -111,7 +111,7 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
             points: kept.map(|p| p.winding.points.len() as u128).sum(),
         };
         let estimate = super::budget::estimate(counts, opts).saturating_add(expanded);
-        let work = super::budget::work(counts, opts);
+        let work = super::budget::limit_work(counts, opts);
         if estimate <= limits.memory && work <= limits.work {
             let coarse = build(prt, &new_id, groups);
             let stats = CoarsenStats {

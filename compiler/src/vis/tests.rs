@@ -535,10 +535,16 @@ fn a_work_limit_refuses_up_front_or_coarsens_until_the_estimate_is_under() {
     assert_eq!(fine.stats.work_estimate, need);
     // Base vis alone counts only its portal pairs.
     assert!(work_estimate(&prt, &VisOptions { fast: true, ..opts.clone() }) < need / 10);
+    // The limits weigh base-vis tests more than the reported estimate does.
+    let limited_need = budget::limit_work(budget::Counts::of(&prt), &opts);
+    assert!(limited_need > need);
     let limit = need / 4;
     let limited = VisOptions { max_work: Some(limit), ..opts.clone() };
     let err = run(&prt, &limited, &none()).expect_err("refused");
-    assert!(matches!(&err, VisError::Work { need: n, limit: l, .. } if *n == need && *l == limit), "{err}");
+    assert!(
+        matches!(&err, VisError::Work { need: n, limit: l, .. } if *n == limited_need && *l == limit),
+        "{err}"
+    );
     assert!(err.to_string().contains("rerun with --coarsen"), "{err}");
     let coarse = run(&prt, &VisOptions { coarsen: true, ..limited.clone() }, &none()).expect("coarsened");
     let c = coarse.stats.coarsened.clone().expect("coarsened");
@@ -551,9 +557,11 @@ fn a_work_limit_refuses_up_front_or_coarsens_until_the_estimate_is_under() {
     assert_eq!(two.stats.coarsened, coarse.stats.coarsened);
     assert_eq!(two.rows, coarse.rows, "rows differ across thread counts");
     // Exactly at the limit nothing is merged; coarsening's own default is far above this input.
-    let at = run(&prt, &VisOptions { max_work: Some(need), coarsen: true, ..opts.clone() }, &none());
+    let at = run(&prt, &VisOptions { max_work: Some(limited_need), coarsen: true, ..opts.clone() }, &none());
     assert_eq!(at.expect("fits").rows, fine.rows);
-    assert!(need < COARSEN_MAX_WORK);
+    let below = run(&prt, &VisOptions { max_work: Some(limited_need - 1), ..opts.clone() }, &none());
+    assert!(matches!(below, Err(VisError::Work { .. })), "one test under the weighted need refuses");
+    assert!(limited_need < COARSEN_MAX_WORK);
 }
 
 #[test]

@@ -35,11 +35,12 @@ const fn flag(
 }
 
 /// Out-of-range values of the vis flags `compile` and `vis` share.
-const VIS_FLAGS: [(&str, &str, &[&str]); 4] = [
+const VIS_FLAGS: [(&str, &str, &[&str]); 5] = [
     ("--level", "4", &["5", "-1", "x"]),
     ("--checkpoint-secs", "60", &["0", "31536001", "18446744073709551616"]),
     ("--max-memory", "512M", &["99999999999T", "-1", "x", "nan"]),
     ("--max-work", "2e11", &["1e30", "-1", "nan", "x"]),
+    ("--max-time", "15m", &["0", "-1s", "nan", "9999h", "1m1h", "15x", "1e400"]),
 ];
 
 /// Every numeric flag but the shared vis flags ([`VIS_FLAGS`]).
@@ -80,6 +81,7 @@ const FLAGS: &[Flag] = &[
     flag("bench", "--frames", "10", &["0", "-1", "100000001", "18446744073709551615", "1e8"]),
     flag("bench", "--seed", "3", &["18446744073709551616"]),
     flag("bench", "--ray-spacing", "8", &["0", "641", "-1"]),
+    flag("bench", "--repeats", "3", &["0", "100001", "-1"]),
     flag("trace", "--poses", "1", &["0", "100001", "-1"]),
     flag("trace", "--seed", "3", &["18446744073709551616"]),
     flag("trace", "--fov", "90", &["0", "179", "nan"]),
@@ -131,6 +133,8 @@ const NOT_NUMERIC: &[(&str, &str)] = &[
     ("render", "--prt"),
     ("render", "--leak"),
     ("bench", "--backend"),
+    ("bench", "--poses-file"),
+    ("bench", "--save-poses"),
     ("trace", "--output"),
     ("trace", "--pose"),
     ("gvs", "--variant"),
