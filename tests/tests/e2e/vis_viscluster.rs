@@ -8,11 +8,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use sightline_formats::bsp::{self, Bsp, CompiledMap, lump, q2};
+use sightline_formats::bsp::{self, CompiledMap, lump, q2};
 
-/// `bytes` with `extra` appended to its entity text (the lump moved to the end of the file).
-fn with_entities(bytes: &[u8], b: &Bsp, extra: &str) -> Vec<u8> {
-    let text = format!("{}{extra}", b.entities.trim_end_matches('\0'));
+/// `bytes` with `extra` appended to the entity text `text`, the lump moved to the end of the file
+/// and its directory entry (at byte `dir`: offset, then length) rewritten.
+fn with_entities(bytes: &[u8], dir: usize, text: &str, extra: &str) -> Vec<u8> {
+    let text = format!("{}{extra}", text.trim_end_matches('\0'));
     let mut out = bytes.to_vec();
     while !out.len().is_multiple_of(4) {
         out.push(0);
@@ -20,14 +21,23 @@ fn with_entities(bytes: &[u8], b: &Bsp, extra: &str) -> Vec<u8> {
     let offset = out.len();
     out.extend_from_slice(text.as_bytes());
     out.push(0);
-    let dir = 4 + 8 * lump::ENTITIES;
     out[dir..dir + 4].copy_from_slice(&(offset as i32).to_le_bytes());
     out[dir + 4..dir + 8].copy_from_slice(&((text.len() + 1) as i32).to_le_bytes());
     out
 }
 
-/// Vis on a copy of `bytes` named `name` (with `prt` beside): the vised rows and stderr.
-fn vis(dir: &Path, name: &str, bytes: &[u8], prt: &Path) -> (Vec<Vec<u8>>, String) {
+/// The entity this test adds: a `func_viscluster` naming model 1.
+const VISCLUSTER: &str = "{\n\"classname\" \"func_viscluster\"\n\"model\" \"*1\"\n}\n";
+
+/// Vis on a copy of `bytes` named `name` (with `prt` beside): the vised rows (`rows` reads them
+/// from the file) and stderr.
+fn vis(
+    dir: &Path,
+    name: &str,
+    bytes: &[u8],
+    prt: &Path,
+    rows: fn(&[u8]) -> Vec<Vec<u8>>,
+) -> (Vec<Vec<u8>>, String) {
     let path = dir.join(format!("{name}.bsp"));
     std::fs::write(&path, bytes).expect("write");
     std::fs::copy(prt, dir.join(format!("{name}.prt"))).expect("copy the portal file");
@@ -38,8 +48,30 @@ fn vis(dir: &Path, name: &str, bytes: &[u8], prt: &Path) -> (Vec<Vec<u8>>, Strin
         .expect("run sightline");
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert_eq!(out.status.code(), Some(0), "{stderr}");
-    let b = bsp::read(&std::fs::read(&path).expect("read")).expect("vised file reads");
-    ((1..=b.visleafs()).map(|l| b.decode_leaf_pvs(l).expect("row")).collect(), stderr)
+    (rows(&std::fs::read(&path).expect("read")), stderr)
+}
+
+/// Every vis leaf's row of a vised Quake 1 file.
+fn q1_rows(bytes: &[u8]) -> Vec<Vec<u8>> {
+    let b = bsp::read(bytes).expect("vised file reads");
+    (1..=b.visleafs()).map(|l| b.decode_leaf_pvs(l).expect("row")).collect()
+}
+
+/// `merged` (rows of the portal file, vis leaves or clusters) saw alike before, share one row
+/// after, which covers what each saw; every other row only grows.
+fn assert_merged(what: &str, before: &[Vec<u8>], after: &[Vec<u8>], merged: &[usize]) {
+    let mut rows: Vec<&Vec<u8>> = merged.iter().map(|&r| &before[r]).collect();
+    rows.sort();
+    rows.dedup();
+    assert!(rows.len() >= 2, "{what}: the box's rows differed before");
+    assert_eq!(before.len(), after.len());
+    let covers = |a: &[u8], b: &[u8]| a.iter().zip(b).all(|(x, y)| x & y == *y);
+    for (r, (a, o)) in after.iter().zip(before).enumerate() {
+        assert!(covers(a, o), "{what}: row {r} lost sight of a row");
+    }
+    for &r in merged {
+        assert_eq!(after[r], after[merged[0]], "{what}: merged rows share one row");
+    }
 }
 
 fn centre(mins: [f32; 3], maxs: [f32; 3]) -> [f64; 3] {
@@ -74,25 +106,14 @@ fn a_func_viscluster_in_a_quake_bsp_merges_the_leaves_in_its_model_box() {
         .collect();
     let dir = std::env::temp_dir().join(format!("sightline-vis-viscluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
-    let (before, _) = vis(&dir, "plain", &plain, &prt);
-    let mut rows: Vec<&Vec<u8>> = merged.iter().map(|&l| &before[l]).collect();
-    rows.sort();
-    rows.dedup();
-    assert!(rows.len() >= 2, "the box's leaves saw alike before");
-    let extra = "{\n\"classname\" \"func_viscluster\"\n\"model\" \"*1\"\n}\n";
-    let (after, stderr) = vis(&dir, "merged", &with_entities(&plain, &b, extra), &prt);
+    let (before, _) = vis(&dir, "plain", &plain, &prt, q1_rows);
+    let with = with_entities(&plain, 4 + 8 * lump::ENTITIES, &b.entities, VISCLUSTER);
+    let (after, stderr) = vis(&dir, "merged", &with, &prt, q1_rows);
     assert!(
         stderr.contains(&format!("func_viscluster 1 (by entity order) merged {} vis leaves", merged.len())),
         "{stderr}"
     );
-    assert_eq!(before.len(), after.len());
-    let covers = |a: &[u8], b: &[u8]| a.iter().zip(b).all(|(x, y)| x & y == *y);
-    for (l, (a, o)) in after.iter().zip(&before).enumerate() {
-        assert!(covers(a, o), "leaf {l} lost sight of a leaf");
-    }
-    for &l in &merged {
-        assert_eq!(after[l], after[merged[0]], "merged leaves share one row");
-    }
+    assert_merged("dm1", &before, &after, &merged);
     let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
 }
 
@@ -167,50 +188,15 @@ fn merges_clusters_in_model_box(name: &str, game: Ibsp) {
         std::process::id()
     ));
     std::fs::create_dir_all(&dir).expect("temp dir");
-    let run = |file: &str, bytes: &[u8]| {
-        let path = dir.join(format!("{file}.bsp"));
-        std::fs::write(&path, bytes).expect("write");
-        std::fs::copy(&prt, dir.join(format!("{file}.prt"))).expect("copy the portal file");
-        let out = Command::new(sightline_tests::sightline_binary())
-            .args(["vis", "--threads", "2"])
-            .arg(&path)
-            .output()
-            .expect("run sightline");
-        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-        assert_eq!(out.status.code(), Some(0), "{stderr}");
-        ((game.rows)(&std::fs::read(&path).expect("read")), stderr)
-    };
-    let (before, _) = run("plain", &plain);
-    let mut rows: Vec<&Vec<u8>> = merged.iter().map(|&c| &before[c]).collect();
-    rows.sort();
-    rows.dedup();
-    assert!(rows.len() >= 2, "{name}: the box's clusters saw alike before");
-    // The entity text (lump 0, NUL-terminated) with the entity appended, moved to the end.
+    let (before, _) = vis(&dir, "plain", &plain, &prt, game.rows);
     let (at, len) = ibsp_lump(&plain, 0);
-    let text = String::from_utf8_lossy(&plain[at..at + len]).trim_end_matches('\0').to_string();
-    let text = format!("{text}{{\n\"classname\" \"func_viscluster\"\n\"model\" \"*1\"\n}}\n");
-    let mut with = plain.clone();
-    while !with.len().is_multiple_of(4) {
-        with.push(0);
-    }
-    let offset = with.len();
-    with.extend_from_slice(text.as_bytes());
-    with.push(0);
-    with[8..12].copy_from_slice(&(offset as i32).to_le_bytes());
-    with[12..16].copy_from_slice(&((text.len() + 1) as i32).to_le_bytes());
-    let (after, stderr) = run("merged", &with);
+    let text = String::from_utf8_lossy(&plain[at..at + len]).into_owned();
+    let (after, stderr) = vis(&dir, "merged", &with_entities(&plain, 8, &text, VISCLUSTER), &prt, game.rows);
     assert!(
         stderr.contains(&format!("func_viscluster 1 (by entity order) merged {} clusters", merged.len())),
         "{name}: {stderr}"
     );
-    assert_eq!(before.len(), after.len());
-    let covers = |a: &[u8], b: &[u8]| a.iter().zip(b).all(|(x, y)| x & y == *y);
-    for (c, (a, o)) in after.iter().zip(&before).enumerate() {
-        assert!(covers(a, o), "{name}: cluster {c} lost sight of a cluster");
-    }
-    for &c in &merged {
-        assert_eq!(after[c], after[merged[0]], "{name}: merged clusters share one row");
-    }
+    assert_merged(name, &before, &after, &merged);
     let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
 }
 
