@@ -13,7 +13,8 @@ use super::{base, flow, graph, state};
 /// have to hold enough flows to keep the cores busy until a batch's longest flow ends.
 pub const FLOW_BATCH: usize = 48;
 
-/// Portals per flow batch below that, by [`work_estimate`]: the first `(below, batch)` whose
+/// Portals per flow batch below that, by the input's work with base tests counted once (not
+/// [`work_estimate`]'s weight): the first `(below, batch)` whose
 /// bound is above the estimate. The sooner a flow's rows and seeds reach later flows, the fewer
 /// chains they visit, but every batch boundary waits for the batch's longest flow, so smaller
 /// inputs (shorter, more even flows) take smaller batches:
@@ -27,7 +28,8 @@ pub const FLOW_BATCH: usize = 48;
 pub const FLOW_BATCHES: [(u64, usize); 3] =
     [(SERIAL_WORK, 4), (10 * SERIAL_WORK, 8), (100 * SERIAL_WORK, 16)];
 
-/// Below this [`work_estimate`] (in portal tests), a run given no thread count ([`VisOptions::threads`]
+/// Below this work (in portal tests, base tests counted once as for [`FLOW_BATCHES`]), a run
+/// given no thread count ([`VisOptions::threads`]
 /// 0) takes one thread: such a run lasts milliseconds, and starting threads and waiting at batch
 /// boundaries for a batch's longest flow cost more than a second thread shares. On a sealed room
 /// with a 100-sided pillar (estimate 9 × 10⁶) two threads took 9.0 ms of CPU to one thread's 5.8,
@@ -36,7 +38,7 @@ pub const FLOW_BATCHES: [(u64, usize); 3] =
 pub const SERIAL_WORK: u64 = 20_000_000;
 
 /// Portals per flow batch for a run of `prt` (the input the flow reads, after any merging) with
-/// `opts`: from [`FLOW_BATCHES`] by its [`work_estimate`], else [`FLOW_BATCH`]. It depends on
+/// `opts`: from [`FLOW_BATCHES`] by its work, else [`FLOW_BATCH`]. It depends on
 /// the input alone, never on the thread count, so every thread count gives the same result.
 pub fn flow_batch(prt: &PortalFile, opts: &VisOptions) -> usize {
     batch(Counts::of(prt), opts)
@@ -62,7 +64,7 @@ pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
 /// [`SERIAL_WORK`] (the cores are then not even counted) and every core above it.
 pub(super) fn thread_count(prt: &PortalFile, opts: &VisOptions) -> usize {
     match opts.threads {
-        0 if work_estimate(prt, opts) < SERIAL_WORK => 1,
+        0 if work(Counts::of(prt), opts) < SERIAL_WORK => 1,
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         t => t,
     }
@@ -138,8 +140,8 @@ const PORTAL_SCAN_WORK: u128 = 8;
 
 /// The work limit [`VisOptions::coarsen`] merges clusters down to when no
 /// [`VisOptions::max_work`] is given, in portal tests: under an hour of one core. The largest
-/// shared map (e1m1, 3,062 portals, 1,167 clusters) is estimated at 2.5 × 10⁹, an eightieth of
-/// it; 10,000 tiny brushes in one room (260,304 portals, 43,651 clusters) at 9.3 × 10¹².
+/// shared map (e1m1, 3,062 portals, 1,167 clusters) is estimated at 2.8 × 10⁹, a seventieth of
+/// it; 10,000 tiny brushes in one room (260,304 portals, 43,651 clusters) at 1.2 × 10¹³.
 pub const COARSEN_MAX_WORK: u64 = 200_000_000_000;
 
 /// Portal tests per second of one core, the fixed rate a time budget (`sightline --max-time`)
@@ -150,17 +152,20 @@ pub const COARSEN_MAX_WORK: u64 = 200_000_000_000;
 pub const WORK_PER_SECOND: u64 = 100_000_000;
 
 /// An estimate of the work a vis of `prt` does, in portal tests, from the counts alone: base vis
-/// tests every one-way portal against at most every other (`one_way²`); the flow, in a room where
-/// every cluster sees every other, follows at least one chain per (one-way portal, cluster), each
-/// worth 300 tests (`CHAIN_WORK`) plus 8 (`PORTAL_SCAN_WORK`) per portal of its cluster
-/// (`one_way / clusters` on average). On real maps the flow visits a tenth to a half of that many
-/// chains. With `--fast` only base vis counts. It grows with the square of the input, which is
-/// what makes a vis of a huge open area not finish; [`VisOptions::max_work`] bounds it.
+/// tests every one-way portal against at most every other (`one_way²`), each test weighed ten
+/// flow tests (`BASE_TEST_WEIGHT`); the flow, in a room where every cluster sees every other,
+/// follows at least one chain per (one-way portal, cluster), each worth 300 tests (`CHAIN_WORK`)
+/// plus 8 (`PORTAL_SCAN_WORK`) per portal of its cluster (`one_way / clusters` on average). On
+/// real maps the flow visits a tenth to a half of that many chains. With `--fast` only base vis
+/// counts. It grows with the square of the input, which is what makes a vis of a huge open area
+/// not finish; [`VisOptions::max_work`] bounds it.
 pub fn work_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
-    work(Counts::of(prt), opts)
+    limit_work(Counts::of(prt), opts)
 }
 
-/// [`work_estimate`] from the counts.
+/// The work of a run from the counts with each base-vis test counted once: what sizes the flow's
+/// batches ([`batch`]) and picks one thread for small inputs ([`thread_count`]). The limits use
+/// [`limit_work`].
 pub(super) fn work(counts: Counts, opts: &VisOptions) -> u64 {
     let one_way = 2 * counts.portals as u128;
     let base = one_way * one_way;
@@ -178,9 +183,10 @@ pub(super) fn work(counts: Counts, opts: &VisOptions) -> u64 {
 /// so counting it as one let the merge stop where base vis alone took over 15 minutes.
 const BASE_TEST_WEIGHT: u128 = 10;
 
-/// The work the limits ([`VisOptions::max_work`], `--max-time`, [`COARSEN_MAX_WORK`]) are
-/// checked against: [`work`] with each base-vis test weighed [`BASE_TEST_WEIGHT`] times. Batch
-/// sizes and the thread count keep [`work`], so the PVS of an input that fits is as before.
+/// [`work_estimate`] from the counts, what the limits ([`VisOptions::max_work`], `--max-time`,
+/// [`COARSEN_MAX_WORK`]) are checked against: [`work`] with each base-vis test weighed
+/// [`BASE_TEST_WEIGHT`] times. Batch sizes and the thread count keep [`work`], so the PVS of an
+/// input is as before the weight was introduced.
 pub(super) fn limit_work(counts: Counts, opts: &VisOptions) -> u64 {
     let one_way = 2 * counts.portals as u128;
     let surcharge = (BASE_TEST_WEIGHT - 1) * one_way * one_way;
@@ -196,9 +202,9 @@ pub(super) fn work_limit(opts: &VisOptions) -> Option<(u64, &'static str)> {
     }
 }
 
-/// Refuse a run whose [`limit_work`] exceeds the limit.
+/// Refuse a run whose [`work_estimate`] exceeds the limit.
 pub(super) fn check_work(prt: &PortalFile, opts: &VisOptions) -> Result<(), VisError> {
-    let need = limit_work(Counts::of(prt), opts);
+    let need = work_estimate(prt, opts);
     match work_limit(opts) {
         Some((limit, source_of_limit)) if need > limit => Err(VisError::Work {
             need,

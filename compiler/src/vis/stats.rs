@@ -170,9 +170,7 @@ pub struct CoarsenStats {
     /// [`memory_estimate`](super::memory_estimate) of the run on the merged clusters plus the rows over the
     /// input's clusters `expand` builds, in bytes.
     pub estimate: u64,
-    /// Work of the run on the merged clusters as the limits count it (its
-    /// [`work_estimate`](super::work_estimate) with each base-vis test weighed ten times), in
-    /// portal tests.
+    /// [`work_estimate`](super::work_estimate) of the run on the merged clusters, in portal tests.
     pub work: u64,
     /// Leaf pairs any PVS of the input holds (each leaf sees the leaves of its own cluster and of
     /// the clusters a portal joins it to): `visible_pairs` over this bounds how much looser the

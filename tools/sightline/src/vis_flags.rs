@@ -31,9 +31,8 @@ pub struct VisFlags {
     #[arg(long, value_name = "SIZE", value_parser = sightline_compiler::memory::parse_size)]
     pub max_memory: Option<u64>,
     /// Refuse a vis whose estimated work is above this many portal tests (a number: 2e11,
-    /// 500000000000). The estimate (`work_estimate` in `--json`, with each base-vis test counted
-    /// ten times here) grows with the square of the portals; about 10^8 tests take a second of
-    /// one core.
+    /// 500000000000). The estimate (`work_estimate` in `--json`; a base-vis test counts as ten)
+    /// grows with the square of the portals; about 10^8 tests take a second of one core.
     #[arg(long, value_name = "TESTS", value_parser = parse_count)]
     pub max_work: Option<u64>,
     /// A work limit given as time (`90s`, `15m`, `1h30m`, `2h`; a bare number is seconds): the
