@@ -397,4 +397,9 @@ fn a_fifo_beside_an_input_is_never_waited_on() {
         let (code, stderr) = b.run(&dir, &["bench", "e.bsp", "--frames", "10"]);
         assert_eq!(code, Some(0), "bench beside a FIFO portal file (None: it waited): {stderr}");
     }
+    // A FIFO given as bench's poses file: refused by name, never opened.
+    fifo("poses.txt");
+    let (code, stderr) = b.run(&dir, &["bench", "r.slvl", "--poses-file", "poses.txt"]);
+    assert_eq!(code, Some(2), "bench --poses-file on a FIFO (None: it waited): {stderr}");
+    assert!(stderr.contains("poses.txt") && stderr.contains("FIFO"), "{stderr}");
 }

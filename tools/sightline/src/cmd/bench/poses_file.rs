@@ -32,8 +32,11 @@ pub struct Pose {
 /// Read the poses of `path` (see the module docs).
 pub fn read(path: &Path) -> anyhow::Result<Vec<Pose>> {
     let file = path.display();
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("{file}: cannot read the poses file"))?;
+    // A regular file only, as every input (a FIFO or a device is refused, not opened).
+    let bytes = sightline_job::input::read_input(path).context("cannot read the poses file")?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        anyhow::anyhow!("{file}: the poses file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to())
+    })?;
     let mut poses = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let (data, comment) = line.split_once('#').unwrap_or((line, ""));
