@@ -3,68 +3,76 @@
 //! [`VisStats`](super::VisStats) only; nothing here changes the PVS.
 //!
 //! # The model
-//! A portal's flow visits about `√m` chains (its [`weight`]), `m` its `mightsee` count: later
-//! portals (in increasing `mightsee` order) find their rows narrowed and their clusters seeded by
-//! earlier flows, so chains per portal grow with about the square root of `m`, not with `m` or
-//! faster (fitted slopes of log chains on log `m` per portal: 0.2–0.6 on E1M1, DM2, the generated
-//! rooms and pillar rooms, below 0 on tiny brushes). A chain's row operations grow with the
-//! rows' length, so a chain costs about `√n` more on `n` one-way portals (2 µs of CPU on DM1,
-//! 16 on 10,000 tiny brushes), while a base vis test costs the same on any input. The flow's
-//! seconds are [`FLOW_PER_BASE_TEST`] × √n × (base vis seconds per base test, measured on this
-//! very run, so on this machine and thread count) × the weights' sum. Measured in
-//! `docs/benchmarks.md` (2026-11-29).
+//! The flow's cost is its chains (recursive calls, one portal deeper each): a chain costs about
+//! the same anywhere (2.4–4.2 µs of CPU on the shared and the heavy maps alike, measured
+//! 2026-11-29), while the chains per portal vary by four orders of magnitude. A portal that might
+//! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^2.2 / `n`^0.6 chains
+//! ([`chains`]): on open maps the late portals find few branches cut by seeds or narrowed rows,
+//! so chains grow faster than `m`, and longer rows narrow more. A chain is priced at
+//! [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and thread count.
+//! The refinement tracks progress by a flatter weight ([`progress_weight`]).
+//! Measured in `docs/benchmarks.md` (2026-11-29).
 
 use std::time::Instant;
 
 use sightline_job::progress::format_seconds;
 
-/// Flow seconds per unit of [`weight`] and per `√n` (`n` one-way portals), in base vis seconds
-/// per base test: the geometric mean (6.1) over the shared and generated maps whose flow took
-/// half a second or more, whose own ratios were 0.68–1.64 times it (2 threads, 2026-11-29).
-pub const FLOW_PER_BASE_TEST: f64 = 6.0;
+/// Chains per portal per `m^2.2 / n^0.6` (see [`chains`]): fitted over the shared maps and the
+/// heavy set whose flows visited 50,000 chains or more (28 maps, 2 threads, 2026-11-29), on which
+/// real / predicted chains was 0.49–2.05.
+pub const CHAINS_SCALE: f64 = 0.0163;
 
-/// The predicted flow cost of a portal that might see `mightsee` portals: `1 + ⌊√mightsee⌋`
-/// (at least one, so every portal counts). Monotone in `mightsee`.
-pub fn weight(mightsee: u64) -> u64 {
-    1 + mightsee.isqrt()
+/// Wall time of a chain in wall time of a base vis test: the geometric mean over the same maps
+/// (their own ratios 0.3–2.0 times it).
+pub const CHAIN_PER_BASE_TEST: f64 = 160.0;
+
+/// The predicted chains of a portal that might see `mightsee` of `portals` one-way portals:
+/// at least 1, so every portal counts. Monotone in `mightsee`.
+pub fn chains(mightsee: u64, portals: usize) -> u64 {
+    let m = mightsee as f64;
+    let predicted = CHAINS_SCALE * m.powf(2.2) / (portals.max(1) as f64).powf(0.6);
+    // `as` saturates: a huge prediction stays finite.
+    (predicted.ceil() as u64).saturating_add(1)
 }
 
-/// The predicted flow work of portals with these `mightsee` counts: the sum of their
-/// [`weight`]s. Never lower for more portals or larger counts.
-pub fn flow_work(mightsee: impl IntoIterator<Item = u64>) -> u64 {
-    mightsee.into_iter().map(weight).fold(0, u64::saturating_add)
-}
-
-/// Seconds predicted for `work` (a [`flow_work`]) on `portals` one-way portals, for a run whose
-/// base vis made `base_tests` tests in `base_seconds` (0 when base vis tested nothing: then there
-/// is nothing to flow). Never lower for more work or more portals.
-pub fn flow_seconds(work: u64, portals: usize, base_seconds: f64, base_tests: u64) -> f64 {
+/// Seconds predicted for `work` chains (a sum of [`chains`]) by a run whose base vis made
+/// `base_tests` tests in `base_seconds` (0 when base vis tested nothing: then there is nothing to
+/// flow). Never lower for more work.
+pub fn flow_seconds(work: u64, base_seconds: f64, base_tests: u64) -> f64 {
     if base_tests == 0 {
         return 0.0;
     }
-    FLOW_PER_BASE_TEST * (portals as f64).sqrt() * base_seconds / base_tests as f64 * work as f64
+    CHAIN_PER_BASE_TEST * base_seconds / base_tests as f64 * work as f64
+}
+
+/// A portal's share of the flow's progress, for [`Refine`]: `1 + mightsee`. Within one map chains
+/// grow with about `m` (fitted slopes 0.4–1.2 on the same maps), more slowly than across maps:
+/// weighed by their predicted [`chains`], the cheap first tenth made the estimate refined there
+/// 1.4–5× pessimistic; by `m`, 0.4–2.4 of the truth.
+pub fn progress_weight(mightsee: u64) -> u64 {
+    mightsee.saturating_add(1)
 }
 
 /// First estimates at or above this many seconds are said (a progress note), with a refined one
-/// at every further tenth of the predicted work.
+/// at every further tenth of the flow's progress ([`progress_weight`]).
 pub const SAY_SECONDS: f64 = 10.0;
 
-/// The refined estimate of a flow in progress: elapsed time scaled by the predicted work left
-/// over the predicted work done (so the cheap portals processed first do not make the rest look
+/// The refined estimate of a flow in progress: elapsed time scaled by the progress left over the
+/// progress done ([`progress_weight`]) (so the cheap portals processed first do not make the rest look
 /// short).
 #[derive(Debug)]
 pub struct Refine {
-    /// Per position of the processing order, the predicted work of the positions before it
+    /// Per position of the processing order, the progress weight of the positions before it
     /// (`n + 1` entries).
     done_before: Vec<u64>,
     /// Position the run started from (after a resume).
     start_pos: usize,
     start: Instant,
-    /// Tenths of the predicted work already said.
+    /// Tenths of the progress already said.
     said: u64,
     /// Say anything at all (the first estimate was long).
     say: bool,
-    /// The estimate (elapsed plus left) made at the first boundary past a tenth of the work.
+    /// The estimate (elapsed plus left) made at the first boundary past a tenth of the progress.
     pub at_tenth: Option<f64>,
 }
 
@@ -79,8 +87,8 @@ impl Refine {
         Self { done_before, start_pos, start: Instant::now(), said: 0, say, at_tenth: None }
     }
 
-    /// The positions before `done` are finished: the line to say, if a new tenth of the predicted
-    /// work was reached.
+    /// The positions before `done` are finished: the line to say, if a new tenth of the
+    /// progress was reached.
     pub fn boundary(&mut self, done: usize) -> Option<String> {
         let at = |p: usize| self.done_before.get(p).copied().unwrap_or(0);
         let total = at(self.done_before.len() - 1).saturating_sub(at(self.start_pos));
@@ -98,7 +106,7 @@ impl Refine {
         self.at_tenth.get_or_insert(elapsed + left);
         self.say.then(|| {
             format!(
-                "vis flow: {}% of the predicted work done in {}, about {} left",
+                "vis flow: {}% of the flow done in {}, about {} left",
                 tenth * 10,
                 format_seconds(elapsed),
                 format_seconds(left)
@@ -112,39 +120,52 @@ mod tests {
     use super::*;
     use sightline_job::rng::SplitMix64;
 
-    /// The estimate is monotone in the work it predicts: adding a portal, or raising a
-    /// portal's `mightsee`, never lowers it (random inputs).
+    fn flow_work(mightsee: impl IntoIterator<Item = u64>, portals: usize) -> u64 {
+        mightsee.into_iter().map(|m| chains(m, portals)).fold(0, u64::saturating_add)
+    }
+
+    /// The estimate is monotone in the work it predicts: raising a portal's `mightsee`, or
+    /// weighing one more portal, never lowers it (random inputs).
     #[test]
     fn more_portals_or_mightsee_never_lower_the_estimate() {
         let mut rng = SplitMix64::new(46);
         for _ in 0..500 {
             let len = (rng.next_u64() % 50) as usize;
-            let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % 100_000).collect();
-            let before = flow_work(counts.iter().copied());
-            let seconds = flow_seconds(before, len, 0.5, 1_000);
+            let n = len + 1 + (rng.next_u64() % 100_000) as usize;
+            let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % n as u64).collect();
+            let before = flow_work(counts.iter().copied(), n);
+            let seconds = flow_seconds(before, 0.5, 1_000);
             if len > 0 {
                 let i = (rng.next_u64() % len as u64) as usize;
                 counts[i] += rng.next_u64() % 1_000;
-                let raised = flow_work(counts.iter().copied());
+                let raised = flow_work(counts.iter().copied(), n);
                 assert!(raised >= before, "{raised} < {before}");
-                assert!(flow_seconds(raised, len, 0.5, 1_000) >= seconds);
+                assert!(flow_seconds(raised, 0.5, 1_000) >= seconds);
             }
-            counts.push(rng.next_u64() % 100_000);
-            let added = flow_work(counts.iter().copied());
+            counts.push(rng.next_u64() % n as u64);
+            let added = flow_work(counts.iter().copied(), n);
             assert!(added > before, "a portal adds at least 1");
-            assert!(flow_seconds(added, len + 1, 0.5, 1_000) > seconds);
+            assert!(flow_seconds(added, 0.5, 1_000) > seconds);
         }
-        assert_eq!(flow_work([u64::MAX, u64::MAX]), (1 + u64::MAX.isqrt()) * 2, "no overflow");
+        assert_eq!(flow_work([u64::MAX, u64::MAX], 1), u64::MAX, "no overflow");
+        assert_eq!(flow_seconds(5, 1.0, 0), 0.0, "nothing to flow without base tests");
     }
 
     #[test]
-    fn refinement_says_each_tenth_once_by_predicted_work() {
+    fn chains_grow_faster_than_mightsee_and_slower_on_longer_rows() {
+        assert!(chains(2_000, 5_000) > 2 * chains(1_000, 5_000));
+        assert!(chains(1_000, 10_000) < chains(1_000, 5_000));
+        assert_eq!(chains(0, 0), 1);
+    }
+
+    #[test]
+    fn refinement_says_each_tenth_once_by_progress_weight() {
         // Nine cheap portals, then one nine times dearer: half the work is the last portal.
         let mut r = Refine::new([1, 1, 1, 1, 1, 1, 1, 1, 1, 9], 0, true);
         assert!(r.boundary(0).is_none());
         assert!(r.boundary(1).is_none(), "a portal of 18 units is not a tenth");
         assert!(r.at_tenth.is_none());
-        assert!(r.boundary(2).is_some_and(|l| l.starts_with("vis flow: 10% of the predicted work")));
+        assert!(r.boundary(2).is_some_and(|l| l.starts_with("vis flow: 10% of the flow done")));
         assert!(r.boundary(2).is_none(), "said once");
         assert!(r.at_tenth.is_some());
         assert!(

@@ -124,9 +124,10 @@ struct Frame {
     /// Words of `might` outside `lo..hi` are zero (and not stored).
     lo: usize,
     hi: usize,
-    /// Separators of (`source`, `pass`): normal order then flipped order.
+    /// Separators of (`source`, `pass`): normal order then flipped order, each computed when
+    /// first needed (a target gone by the first list never needs the second).
     seps: [Vec<Plane>; 2],
-    seps_ready: bool,
+    seps_ready: [bool; 2],
     /// Tests 3 and 4 (narrowing `source`) are still to run.
     narrow: bool,
     /// The first this many clusters of the chain (see [`Flow::certify`]) have every pair among
@@ -252,7 +253,7 @@ impl Flow {
         f.might.copy_from_slice(&test[base * self.words..(base + 1) * self.words]);
         f.lo = f.might.iter().position(|&w| w != 0).unwrap_or(0);
         f.hi = f.might.iter().rposition(|&w| w != 0).map_or(0, |w| w + 1);
-        f.seps_ready = false;
+        f.seps_ready = [false; 2];
         f.narrow = false;
         f.paired = 1;
         let head = Head { plane: p.plane, bound: Sphere { center: p.center, radius: p.radius } };
@@ -356,7 +357,7 @@ impl Flow {
             next.portal = pi as u32;
             next.leaf = p.leaf;
             next.plane = Some(p.plane);
-            next.seps_ready = false;
+            next.seps_ready = [false; 2];
             next.narrow = false;
             next.paired = prev.paired;
             if d > 0 {
@@ -492,8 +493,12 @@ impl Flow {
             return true;
         }
         self.culls += 1;
+        let level = self.level;
         let f = &mut self.frames[d];
-        f.ensure_separators(self.level, g.convex);
+        f.ensure_separators(0, g.convex);
+        if level >= 2 {
+            f.ensure_separators(1, g.convex);
+        }
         let mut dropped = false;
         for &w in &f.open {
             for ti in bits::word_ones(w, f.might[w] & !self.vis[w]) {
@@ -507,7 +512,7 @@ impl Flow {
                 };
                 let out = f.plane.as_ref().is_some_and(beyond)
                     || f.seps[0].iter().any(beyond)
-                    || f.seps[1].iter().any(beyond);
+                    || (level >= 2 && f.seps[1].iter().any(beyond));
                 if out {
                     f.might[w] &= !bits::mask(ti);
                     dropped = true;
@@ -564,24 +569,21 @@ impl Frame {
             || self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0)
     }
 
-    /// Compute the separators of (`source`, `pass`) unless cached.
-    fn ensure_separators(&mut self, level: u8, convex: bool) {
-        if self.seps_ready {
+    /// Compute list `k` of the separators of (`source`, `pass`) (0: normal order, 1: flipped)
+    /// unless cached.
+    fn ensure_separators(&mut self, k: usize, convex: bool) {
+        if self.seps_ready[k] {
             return;
         }
-        for (k, flip) in [false, true].into_iter().enumerate() {
-            self.seps[k].clear();
-            if k == 1 && level < 2 {
-                break;
-            }
-            let (a, b) = if flip { (&self.pass, &self.source) } else { (&self.source, &self.pass) };
-            let list = &mut self.seps[k];
-            for_each_separator(a, b, flip, convex, |plane| {
-                list.push(*plane);
-                true
-            });
-        }
-        self.seps_ready = true;
+        let flip = k == 1;
+        let (a, b) = if flip { (&self.pass, &self.source) } else { (&self.source, &self.pass) };
+        let list = &mut self.seps[k];
+        list.clear();
+        for_each_separator(a, b, flip, convex, |plane| {
+            list.push(*plane);
+            true
+        });
+        self.seps_ready[k] = true;
     }
 }
 
@@ -601,9 +603,9 @@ fn clip_target(
         return true;
     }
     if source_clip == Clip::Whole {
-        prev.ensure_separators(level, convex);
-        for list in &prev.seps {
-            for plane in list {
+        for k in 0..if level < 2 { 1 } else { 2 } {
+            prev.ensure_separators(k, convex);
+            for plane in &prev.seps[k] {
                 if next.pass.clip_in(target, plane, CLIP_EPSILON, tmp) == Clip::Gone {
                     return false;
                 }

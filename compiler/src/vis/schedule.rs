@@ -43,14 +43,12 @@ pub(super) fn flow_all(
 ) -> Result<Vec<u64>, VisError> {
     let n = g.portals.len();
     let order = plan::processing_order(&might, words, n);
-    // Each position's predicted cost, from its `mightsee` count (before the flow narrows it).
-    let weights: Vec<u64> = order
-        .iter()
-        .map(|&p| estimate::weight(sightline_formats::bits::count(&might[p * words..(p + 1) * words])))
-        .collect();
     // The flow narrows the `mightsee` rows in place.
     let mut test = might;
     symmetry::tighten_all(&mut test, words, n);
+    // Each position's row count before the flow narrows it further: the estimate's input.
+    let counts: Vec<u64> =
+        order.iter().map(|&p| sightline_formats::bits::count(&test[p * words..(p + 1) * words])).collect();
     let nc = g.num_clusters();
     let mut seeds = seeds::Seeds::new(nc);
     // A shard plan's waves are batches too ([`plan::wave_size`]).
@@ -83,9 +81,10 @@ pub(super) fn flow_all(
         });
     }
     // The estimate, for the portals left.
-    stats.flow_estimate_work = weights[done..].iter().fold(0, |a, &w| a.saturating_add(w));
+    stats.flow_estimate_work =
+        counts[done..].iter().map(|&m| estimate::chains(m, n)).fold(0, |a, w| a.saturating_add(w));
     stats.flow_estimate_seconds =
-        estimate::flow_seconds(stats.flow_estimate_work, n, stats.base_seconds, stats.base_tests);
+        estimate::flow_seconds(stats.flow_estimate_work, stats.base_seconds, stats.base_tests);
     let say = stats.flow_estimate_seconds >= estimate::SAY_SECONDS;
     if say {
         progress.note(&format!(
@@ -94,7 +93,7 @@ pub(super) fn flow_all(
             n - done
         ));
     }
-    let refine = estimate::Refine::new(weights, done, say);
+    let refine = estimate::Refine::new(counts.iter().map(|&m| estimate::progress_weight(m)), done, say);
     let flow_phase = phase(progress, "vis flow", n as u64);
     flow_phase.advance(done as u64);
     let run = Run { g, order: &order, words, n, batch, opts, progress: &flow_phase, notes: progress };

@@ -42,15 +42,16 @@ pub struct VisStats {
     /// Portal pairs base vis tested: with `base_seconds`, this run's speed, which
     /// [`flow_estimate_seconds`](Self::flow_estimate_seconds) is scaled by.
     pub base_tests: u64,
-    /// The flow's predicted work ([`estimate::flow_work`](super::estimate::flow_work) of the
-    /// portals left to flow, from their `mightsee`), 0 without a flow.
+    /// The flow's predicted chains (the sum of [`estimate::chains`](super::estimate::chains) over
+    /// the portals left to flow, from their rows before the flow), 0 without a flow.
     pub flow_estimate_work: u64,
     /// The first estimate of `flow_seconds`, made before the flow from base vis's speed
     /// ([`estimate::flow_seconds`](super::estimate::flow_seconds)); its accuracy is measured in
     /// `docs/benchmarks.md`.
     pub flow_estimate_seconds: f64,
-    /// The estimate of `flow_seconds` refined once a tenth of the predicted work was done
-    /// (elapsed time scaled by the predicted work left), when the flow got that far.
+    /// The estimate of `flow_seconds` refined once a tenth of the flow was done (elapsed time
+    /// scaled by the progress left, [`estimate::Refine`](super::estimate::Refine)), when the flow
+    /// got that far.
     pub flow_refined_seconds: Option<f64>,
     /// Seconds in the flow.
     pub flow_seconds: f64,
