@@ -11,8 +11,12 @@ pub trait Backend: Send + Sync + std::fmt::Debug {
     /// Short lowercase name (`"pvs"`, `"portal"`, ...), used by the CLI, the C ABI and reports.
     fn name(&self) -> &'static str;
 
-    /// True when this backend can answer for `world` (the portal backend needs portals).
-    fn supports(&self, world: &World) -> bool;
+    /// True when this backend can answer for `world` (the portal backend needs portals, the GVS
+    /// one cells): every world unless the backend says otherwise.
+    fn supports(&self, world: &World) -> bool {
+        let _ = world;
+        true
+    }
 
     /// True when the backend never hides a visible leaf or face (every backend but the
     /// ray-casting one, whose sparse rays may miss what lies between them, and the GVS one,

@@ -20,10 +20,6 @@ impl Backend for FrustumOnly {
         "frustum"
     }
 
-    fn supports(&self, _world: &World) -> bool {
-        true
-    }
-
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
         scratch.stats =
             FrameStats { marked_leaves: world.open_leaves().len() as u32, ..FrameStats::default() };

@@ -21,10 +21,6 @@ impl Backend for NoCulling {
         "none"
     }
 
-    fn supports(&self, _world: &World) -> bool {
-        true
-    }
-
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
         scratch.bind(world);
         out.clear();

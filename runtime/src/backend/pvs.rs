@@ -61,10 +61,6 @@ impl Backend for Pvs {
         "pvs"
     }
 
-    fn supports(&self, _world: &World) -> bool {
-        true
-    }
-
     fn cull(&self, world: &World, view: &View, scratch: &mut Scratch, out: &mut Visible) {
         let eye_leaf = world.leaf_at(view.eye);
         let marks = Self::mark(world, eye_leaf, scratch);

@@ -223,10 +223,6 @@ impl Backend for RayCast {
         "raycast"
     }
 
-    fn supports(&self, _world: &World) -> bool {
-        true
-    }
-
     fn conservative(&self) -> bool {
         false
     }
