@@ -37,6 +37,15 @@ pub struct Sphere {
     pub radius: f64,
 }
 
+impl Sphere {
+    /// The sphere lies wholly behind `plane` (at most [`TOUCH_EPSILON`] in front): clipping
+    /// anything inside it by `plane` leaves nothing ([`Poly::clip_in`]).
+    #[inline]
+    pub fn behind(&self, plane: &Plane) -> bool {
+        plane.distance(self.center) + self.radius <= TOUCH_EPSILON
+    }
+}
+
 /// Capacity of a [`Poly`]: `.prt` windings have at most 64 points; clips may add a few.
 pub const CAP: usize = 72;
 
@@ -102,7 +111,7 @@ impl Poly {
         if c + eps >= bound.radius {
             return Clip::Whole;
         }
-        if c + bound.radius <= TOUCH_EPSILON {
+        if bound.behind(plane) {
             self.n = 0;
             return Clip::Gone;
         }
@@ -157,6 +166,57 @@ impl Poly {
         self.p[..out].copy_from_slice(&tmp.p[..out]);
         self.n = out;
         Clip::Cut
+    }
+}
+
+impl Poly {
+    /// Fewer points, keeping more: while the winding has more than `max` points, the edge whose
+    /// removal adds the least area goes, its two neighbours extended to where they meet. A
+    /// removal is made only when it adds at most `share` of the winding's area and the meeting
+    /// point lies inside `bound` (which must hold the winding, and so still does). The result
+    /// holds the input and stays convex, so clipping by it only keeps more.
+    pub fn simplify(&mut self, max: usize, share: f64, bound: &Sphere) {
+        let normal = self.normal;
+        while self.n > max.max(3) {
+            let n = self.n;
+            let pts = &self.p[..n];
+            // Twice the area, and twice the area each removal would add.
+            let area =
+                (1..n - 1).map(|i| (pts[i] - pts[0]).cross(pts[i + 1] - pts[0]).dot(normal)).sum::<f64>();
+            let mut best: Option<(f64, usize, DVec3)> = None;
+            for i in 0..n {
+                let (a, u) = (pts[(i + n - 1) % n], pts[i]);
+                let (v, b) = (pts[(i + 1) % n], pts[(i + 2) % n]);
+                // Edge `u v` goes; `a u` and `b v`, extended beyond `u` and `v`, meet at `u + (u - a) s`.
+                let (du, dv, e) = (u - a, b - v, v - u);
+                let turn = du.cross(dv).dot(normal);
+                if turn <= 0.0 {
+                    continue; // the extensions diverge
+                }
+                let (s, t) = (e.cross(dv).dot(normal) / turn, du.cross(e).dot(normal) / turn);
+                if !(s >= 0.0 && t >= 0.0) {
+                    continue;
+                }
+                let x = u + du * s;
+                if !x.is_finite() || x.distance(bound.center) >= bound.radius {
+                    continue;
+                }
+                let added = e.cross(x - u).dot(normal).abs();
+                if best.is_none_or(|(least, _, _)| added < least) {
+                    best = Some((added, i, x));
+                }
+            }
+            let Some((added, i, x)) = best else { return };
+            let limit = share * area;
+            if limit.is_nan() || added > limit {
+                return;
+            }
+            // Points `i` and `i + 1` become `x`.
+            let j = (i + 1) % n;
+            self.p[i] = x;
+            self.p.copy_within(j + 1..n, j);
+            self.n = n - 1;
+        }
     }
 }
 
@@ -508,6 +568,52 @@ mod tests {
                     });
                     prop_assert!(clips.iter().all(|&c| c == Clip::Whole), "{clips:?}");
                 }
+            }
+        }
+
+        /// A simplified winding holds the input, stays convex and inside the bound, and has
+        /// no more points than the input: any convex polygon (points on an ellipse), limits
+        /// and shares from none to all of the area.
+        #[test]
+        fn simplify_keeps_more_and_stays_convex(
+            angles in prop::collection::vec(0.0f64..std::f64::consts::TAU, 3..40),
+            radii in prop::collection::vec(0.01f64..500.0, 2),
+            max in 3usize..10,
+            share in 0.0f64..1.0,
+            tight in any::<bool>(),
+        ) {
+            let mut sorted = angles.clone();
+            sorted.sort_by(f64::total_cmp);
+            sorted.dedup_by(|x, y| (*x - *y).abs() < 1e-3);
+            prop_assume!(sorted.len() >= 3);
+            let pts: Vec<DVec3> =
+                sorted.iter().map(|&t| DVec3::new(7.0, radii[0] * t.cos(), radii[1] * t.sin())).collect();
+            let w = poly(&pts);
+            prop_assume!(w.normal.is_finite());
+            // A bound just holding the input, or one that never refuses a point.
+            let radius = if tight { radii[0].max(radii[1]) * 1.01 } else { 1e9 };
+            let bound = Sphere { center: DVec3::new(7.0, 0.0, 0.0), radius };
+            let mut s = w.clone();
+            s.simplify(max, share, &bound);
+            prop_assert!(s.n <= w.n && s.n >= 3);
+            // Unbounded, a winding of five or more points always has an edge whose neighbours
+            // meet beyond it (its turns add up to a full turn).
+            let mut all = w.clone();
+            all.simplify(max, f64::INFINITY, &Sphere { center: bound.center, radius: f64::INFINITY });
+            prop_assert!(all.n <= max.max(4), "{} points left of {}", all.n, w.n);
+            let scale = radii[0].max(radii[1]);
+            let out = &s.p[..s.n];
+            for (i, &p) in out.iter().enumerate() {
+                prop_assert!(p.distance(bound.center) < bound.radius);
+                let q = out[(i + 1) % s.n];
+                let inward = w.normal.cross(q - p).normalize();
+                // Every input point lies within the simplified winding (left of each edge).
+                for &x in w.points() {
+                    prop_assert!(inward.dot(x - p) >= -1e-9 * scale, "{x} outside edge {p} {q}");
+                }
+                // Convex: the next point turns the same way.
+                let r = out[(i + 2) % s.n];
+                prop_assert!(inward.dot(r - q) >= -1e-9 * scale);
             }
         }
 
