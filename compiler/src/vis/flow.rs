@@ -517,34 +517,49 @@ impl Flow {
             return true;
         }
         self.culls += 1;
-        let level = self.level;
         let f = &mut self.frames[d];
+        // The pass plane and the first list, then the flipped list for the portals left: it is
+        // built only when some are.
         f.ensure_separators(0, g.convex);
-        if level >= 2 {
-            f.ensure_separators(1, g.convex);
-        }
         let mut dropped = false;
+        let mut left = false;
         for &w in &f.open {
             for ti in bits::word_ones(w, f.might[w] & !self.vis[w]) {
-                let [x, y, z, r] = g.spheres[ti];
-                let center = DVec3::new(x, y, z);
-                let beyond = |pl: &Plane| {
-                    let c = pl.distance(center);
-                    c + r <= TOUCH_EPSILON
-                        || (c < 0.0
-                            && g.winding(&g.portals[ti]).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
-                };
-                let out = f.plane.as_ref().is_some_and(beyond)
-                    || f.seps[0].iter().any(beyond)
-                    || (level >= 2 && f.seps[1].iter().any(beyond));
-                if out {
+                let behind = beyond(g, ti);
+                if f.plane.as_ref().is_some_and(&behind) || f.seps[0].iter().any(&behind) {
                     f.might[w] &= !bits::mask(ti);
                     dropped = true;
+                } else {
+                    left = true;
+                }
+            }
+        }
+        if left && self.level >= 2 {
+            f.ensure_separators(1, g.convex);
+            for &w in &f.open {
+                for ti in bits::word_ones(w, f.might[w] & !self.vis[w]) {
+                    if f.seps[1].iter().any(beyond(g, ti)) {
+                        f.might[w] &= !bits::mask(ti);
+                        dropped = true;
+                    }
                 }
             }
         }
         self.culled |= dropped;
         true
+    }
+}
+
+/// A test that portal `ti` lies wholly behind a plane (or at most touches it), by its sphere and
+/// then, when the sphere's centre is behind, by its points.
+#[inline]
+fn beyond(g: &Graph, ti: usize) -> impl Fn(&Plane) -> bool + '_ {
+    let [x, y, z, r] = g.spheres[ti];
+    let center = DVec3::new(x, y, z);
+    move |pl: &Plane| {
+        let c = pl.distance(center);
+        c + r <= TOUCH_EPSILON
+            || (c < 0.0 && g.winding(&g.portals[ti]).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
     }
 }
 
