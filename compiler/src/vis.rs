@@ -100,7 +100,8 @@ use schedule::flow_all;
 /// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
 /// per finished portal (from worker threads), a note when clusters are merged to fit the limits,
 /// the flow's estimated time when it is long ([`estimate`], refined at each tenth of its
-/// progress) and a warning, once done, that the merged PVS is looser (and by how much); [`VisOptions::cancel`] stops the run at its next batch boundary.
+/// progress) and a warning, once done, that the merged PVS is looser (and by how much);
+/// [`VisOptions::cancel`] stops the run at its next batch boundary.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     // The thread count and the memory limit, each found once.
     let opts = &checked_input(prt, opts)?;

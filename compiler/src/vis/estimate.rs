@@ -58,8 +58,8 @@ pub fn progress_weight(mightsee: u64) -> u64 {
 pub const SAY_SECONDS: f64 = 10.0;
 
 /// The refined estimate of a flow in progress: elapsed time scaled by the progress left over the
-/// progress done ([`progress_weight`]) (so the cheap portals processed first do not make the rest look
-/// short).
+/// progress done ([`progress_weight`]), so the cheap portals processed first do not make the rest
+/// look short.
 #[derive(Debug)]
 pub struct Refine {
     /// Per position of the processing order, the progress weight of the positions before it

@@ -554,12 +554,12 @@ impl Flow {
 /// then, when the sphere's centre is behind, by its points.
 #[inline]
 fn beyond(g: &Graph, ti: usize) -> impl Fn(&Plane) -> bool + '_ {
-    let [x, y, z, r] = g.spheres[ti];
-    let center = DVec3::new(x, y, z);
+    let [x, y, z, radius] = g.spheres[ti];
+    let sphere = Sphere { center: DVec3::new(x, y, z), radius };
     move |pl: &Plane| {
-        let c = pl.distance(center);
-        c + r <= TOUCH_EPSILON
-            || (c < 0.0 && g.winding(&g.portals[ti]).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
+        sphere.behind(pl)
+            || (pl.distance(sphere.center) < 0.0
+                && g.winding(&g.portals[ti]).iter().all(|q| pl.distance(*q) <= TOUCH_EPSILON))
     }
 }
 
