@@ -52,9 +52,9 @@ pub(super) fn batch(counts: Counts, opts: &VisOptions) -> usize {
 
 /// An upper estimate of the bytes [`run`](super::run) allocates for `prt` with `opts`, computed from the
 /// counts alone: the portal × portal bit matrices (`mightsee`, the flow rows; with a state file
-/// its log, `state::bytes_bound`, seed pairs included), the cluster × cluster matrices
-/// (certified seeds and the batch's pending ones, cluster rows, their snapshot and the
-/// `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`](super::MAX_FLOW_DEPTH)
+/// its log, `state::bytes_bound`, seed pairs included), the seeds (known and the batch's
+/// pending ones, a row of clusters per portal and per cluster), the cluster × cluster matrices
+/// (cluster rows, their snapshot and the `mightsee` rows for statistics), per-thread rows and flow frames (at most [`MAX_FLOW_DEPTH`](super::MAX_FLOW_DEPTH)
 /// deep), and the portal graph.
 pub fn memory_estimate(prt: &PortalFile, opts: &VisOptions) -> u64 {
     estimate(Counts::of(prt), &VisOptions { threads: thread_count(prt, opts), ..opts.clone() })
@@ -108,9 +108,9 @@ pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let mut matrices = one_way * row;
     if !opts.fast {
         matrices += one_way * row;
-        // The certified seeds (known and pending), and the checkpoint log (a row per portal and
-        // up to every seed pair, with its encoding while saved or loaded).
-        matrices += 2 * nc * cluster_row;
+        // The seeds (known and pending), and the checkpoint log (a row per portal and up to
+        // every seed pair, with its encoding while saved or loaded).
+        matrices += 2 * (one_way + nc) * cluster_row;
         if opts.state.is_some() {
             matrices += state::bytes_bound(one_way, row / 8, nc);
         }
@@ -121,7 +121,7 @@ pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     // row; with the flow, its state and the row it fills.
     let mut per_thread = row + cluster_row + 4 * nc;
     if !opts.fast {
-        per_thread += row + flow::Flow::bytes(bits::words(one_way as usize), nc as usize);
+        per_thread += row + flow::Flow::bytes(one_way as usize, nc as usize);
     }
     let slots = batch(counts, opts) as u128 * row;
     let total = graph + matrices + clusters + threads * per_thread + slots;

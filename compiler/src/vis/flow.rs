@@ -36,11 +36,11 @@
 //! clip. On a room of 125 tiny brushes (every leaf sees every leaf, a row spans 66 words of which
 //! about 3 are open) this cuts vis's instructions by 8 % for the same chains and PVS.
 //!
-//! Seeds: clusters known visible from the source's cluster count as seen from the start: those
-//! joined to it by a certified line ([`super::certify`]), and those the finished flows of its
-//! other portals counted seen. A flow records both for later flows ([`super::seeds`]): the pairs
-//! of its new certified lines, and, when it ends, the clusters it saw as seen from its own
-//! cluster (which that cluster's row holds anyway; on E1M1 this cuts the chains by a quarter).
+//! Seeds: some clusters count as seen from the start: those a certified line ([`super::certify`])
+//! reaches through the source portal, and those the finished flows of its cluster's other
+//! portals counted seen. A flow records both for later flows ([`super::seeds`]): for every
+//! portal its new certified lines cross, the clusters they reach beyond it, and, when it ends,
+//! the clusters it saw as seen from its own cluster (which that cluster's row holds anyway).
 //! A frame remembers how many of the chain's clusters already have all their pairs recorded, so a
 //! line certified one frame deeper records only the pairs of the clusters after those: along a
 //! straight corridor, a number of pairs growing with the depth rather than with its square.
@@ -169,8 +169,10 @@ pub struct Flow {
     pub chains: u64,
     /// Look for certified sight lines (for seeds).
     seeding: bool,
-    /// The clusters on a certified line (see [`Flow::certify`]), reused from line to line.
+    /// The one-way portals a certified line crosses and its clusters (see [`Flow::certify`]),
+    /// reused from line to line.
     line: Vec<u32>,
+    on: Vec<u32>,
     /// Seed pairs recorded and not yet flushed to the shared matrix ([`Seeds::record`]).
     recorded: Recorder,
     /// Beam culls made by this flow so far, and whether any of them dropped a portal.
@@ -181,9 +183,10 @@ pub struct Flow {
 }
 
 impl Flow {
-    /// State for rows of `words` words and separator `level` 0..=4; `seeding` looks for
-    /// certified sight lines.
-    pub fn new(words: usize, clusters: usize, level: u8, seeding: bool) -> Self {
+    /// State for `portals` one-way portals, `clusters` clusters and separator `level` 0..=4;
+    /// `seeding` looks for certified sight lines.
+    pub fn new(portals: usize, clusters: usize, level: u8, seeding: bool) -> Self {
+        let words = bits::words(portals);
         Self {
             frames: Vec::new(),
             scratch: Scratch::default(),
@@ -194,23 +197,25 @@ impl Flow {
             chains: 0,
             seeding,
             line: Vec::new(),
-            recorded: Recorder::new(clusters),
+            on: Vec::new(),
+            recorded: Recorder::new(portals, clusters),
             culls: 0,
             culled: false,
             beam_trial: BEAM_TRIAL,
         }
     }
 
-    /// An upper bound of the bytes a flow's state takes for rows of `words` words and
-    /// `clusters` clusters: its frames at the deepest, its rows, and a certified line's clusters
-    /// (the chain's, and up to [`MAX_FLOW_DEPTH`] each way beyond it).
-    pub fn bytes(words: usize, clusters: usize) -> u128 {
+    /// An upper bound of the bytes a flow's state takes for `portals` one-way portals and
+    /// `clusters` clusters: its frames at the deepest, its rows, a certified line's portals
+    /// (the chain's, and up to [`MAX_FLOW_DEPTH`] each way beyond it) and its [`Recorder`].
+    pub fn bytes(portals: usize, clusters: usize) -> u128 {
+        let words = bits::words(portals);
         let frame = std::mem::size_of::<Frame>() + 16 * words + 2 * CAP * std::mem::size_of::<Plane>();
         (MAX_FLOW_DEPTH as u128 + 1) * frame as u128
             + std::mem::size_of::<Self>() as u128
             + 8 * (words + bits::words(clusters)) as u128
-            + 4 * (3 * MAX_FLOW_DEPTH as u128 + 2)
-            + Recorder::bytes(clusters)
+            + 8 * (3 * MAX_FLOW_DEPTH as u128 + 2)
+            + Recorder::bytes(portals, clusters)
     }
 
     /// Whether a beam cull of the last [`Flow::run`] dropped a portal.
@@ -238,11 +243,11 @@ impl Flow {
     /// makes `trial` beam culls before it stops culling if none of them dropped a portal (see
     /// [`Flow::dropped`]).
     ///
-    /// The clusters `seeds` knows visible from the cluster `base` leaves are marked seen from
-    /// the start, so branches that could only find them are not explored. The row stays a
-    /// superset of what `base` sees (it may also hold portals into clusters seen only through the
-    /// cluster's other portals, which the cluster's row holds anyway). The seeds the run certifies
-    /// are recorded in `seeds`.
+    /// The clusters `seeds` knows visible through `base`, or seen by earlier flows from the
+    /// cluster `base` leaves, are marked seen from the start, so branches that could only find
+    /// them are not explored. The row stays a superset of what `base` sees (it may also hold
+    /// portals into clusters seen only through the cluster's other portals, which the cluster's
+    /// row holds anyway). The seeds the run certifies are recorded in `seeds`.
     pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, base: usize, trial: u32, out: &mut [u64]) {
         self.vis.fill(0);
         self.seen.fill(0);
@@ -250,8 +255,12 @@ impl Flow {
         self.culled = false;
         self.beam_trial = trial;
         let p = &g.portals[base];
-        for c in bits::ones(seeds.row(p.owner as usize)) {
-            self.see(g, c as u32);
+        let (through, of_cluster) =
+            (seeds.row(seeds.through(base as u32) as usize), seeds.row(seeds.of_cluster(p.owner) as usize));
+        for (w, (&a, &b)) in through.iter().zip(of_cluster).enumerate() {
+            for c in bits::word_ones(w, a | b) {
+                self.see(g, c as u32);
+            }
         }
         self.see(g, p.leaf);
         self.see(g, p.owner);
@@ -273,8 +282,8 @@ impl Flow {
         if self.seeding {
             // Every cluster counted seen is in the PVS of the base portal's cluster (the row
             // below holds a portal into it), so later flows from that cluster's other portals may
-            // start with it seen, as with certified pairs.
-            seeds.record_row(p.owner, &self.seen);
+            // start with it seen.
+            seeds.record_row(seeds.of_cluster(p.owner), &self.seen);
         }
         seeds.flush(&mut self.recorded);
         // Portals it might see that lead into a cluster it sees: a superset of the portals it
@@ -467,30 +476,42 @@ impl Flow {
         let Some((a, b)) = line else {
             return;
         };
-        // The line's clusters: the chain's (the base portal's owner, then the cluster each frame
-        // `0..=k` reached), those beyond the target, and those behind the source.
-        let mut on = std::mem::take(&mut self.line);
+        // The line's one-way portals in its order, each leading from a cluster into the next:
+        // those behind the source (walked backwards, so reversed and turned round), the chain's
+        // (the base portal, then the one into each frame `1..=k`), and those beyond the target.
+        let mut line = std::mem::take(&mut self.line);
+        line.clear();
+        certify::walk(g, b, a, base.owner, MAX_FLOW_DEPTH, &mut line);
+        line.reverse();
+        for q in &mut line {
+            *q ^= 1;
+        }
+        let behind = line.len();
+        line.extend(chain.iter().map(|f| f.portal));
+        let chain_end = line.len();
+        certify::walk(g, a, b, target.leaf, MAX_FLOW_DEPTH, &mut line);
+        // Its clusters: the first portal's owner, then each portal's leaf. Cluster `i` sees
+        // cluster `j > i` through portal `i`, and `j` sees `i` through the reverse of portal
+        // `j - 1`. Pairs among the chain's first `paired` clusters (those of the line from
+        // `behind` on) are already recorded.
+        let mut on = std::mem::take(&mut self.on);
         on.clear();
-        on.push(base.owner);
-        on.extend(chain.iter().map(|f| f.leaf));
-        let paired = chain[k].paired;
-        let chain_end = on.len();
-        certify::walk(g, a, b, target.leaf, MAX_FLOW_DEPTH, &mut on);
-        let ahead_end = on.len();
-        certify::walk(g, b, a, base.owner, MAX_FLOW_DEPTH, &mut on);
-        // Pairs among the first `paired` clusters of the chain are already recorded.
-        for j in paired..on.len() {
-            for i in 0..j {
-                seeds.record(&mut self.recorded, on[i], on[j]);
-                seeds.record(&mut self.recorded, on[j], on[i]);
+        on.extend(line.first().map(|&q| g.portals[q as usize].owner));
+        on.extend(line.iter().map(|&q| g.portals[q as usize].leaf));
+        let paired = behind + chain[k].paired;
+        for j in 1..on.len() {
+            for i in (0..j).filter(|&i| i < behind || j >= paired) {
+                seeds.record(&mut self.recorded, seeds.through(line[i]), on[j]);
+                seeds.record(&mut self.recorded, seeds.through(line[j - 1] ^ 1), on[i]);
             }
         }
-        self.frames[k].paired = chain_end;
+        self.frames[k].paired = chain_end - behind + 1;
         // Beyond the target the line runs on through the base portal: seen from here too.
-        for &c in &on[chain_end..ahead_end] {
+        for &c in &on[chain_end + 1..] {
             see(&mut self.seen, &mut self.vis, g, c);
         }
-        self.line = on;
+        self.line = line;
+        self.on = on;
     }
 
     /// Drop from frame `d`'s `might` every portal not yet covered that lies wholly behind (or at
@@ -710,9 +731,9 @@ mod tests {
         let g = Graph::new(&corridor(n));
         let words = bits::words(g.portals.len());
         let might = base::mightsee(&g, words, 1, &|| {}).rows;
-        let seeds = Seeds::new(g.num_clusters());
+        let seeds = Seeds::new(g.portals.len(), g.num_clusters());
         for seeding in [false, true] {
-            let mut flow = Flow::new(words, g.num_clusters(), 4, seeding);
+            let mut flow = Flow::new(g.portals.len(), g.num_clusters(), 4, seeding);
             let mut out = vec![0u64; words];
             flow.run(&g, &might, &seeds, 0, BEAM_TRIAL, &mut out);
             // Every portal ahead is visible, though the flow stopped at MAX_FLOW_DEPTH frames.
@@ -742,10 +763,10 @@ mod tests {
         let g = Graph::new(&corridor(48));
         let words = bits::words(g.portals.len());
         let might = base::mightsee(&g, words, 1, &|| {}).rows;
-        let seeds = Seeds::new(g.num_clusters());
+        let seeds = Seeds::new(g.portals.len(), g.num_clusters());
         let mut rows = Vec::new();
         for trial in [QUIET_TRIAL, BEAM_TRIAL, u32::MAX] {
-            let mut flow = Flow::new(words, g.num_clusters(), 4, false);
+            let mut flow = Flow::new(g.portals.len(), g.num_clusters(), 4, false);
             let mut out = vec![0u64; words];
             flow.run(&g, &might, &seeds, 0, trial, &mut out);
             assert!(!flow.dropped(), "nothing to drop in a straight corridor");

@@ -14,8 +14,8 @@ pub struct VisOptions {
     pub fast: bool,
     /// Separator tests, 0..=4 as the reference `vis -level` defines them (4 is the tightest).
     pub level: u8,
-    /// Seed flows with clusters known visible by certified sight lines (`certify`) and with
-    /// those earlier flows from the same cluster saw (on by default). Off, every flow finds
+    /// Seed flows with clusters known visible through their portal by certified sight lines
+    /// (`certify`) and with those earlier flows from the same cluster saw (on by default). Off, every flow finds
     /// everything itself: more work, and about the PVS the seeds would leave (the beam cull
     /// depends on the order clusters are found in, and a seeded flow's row also holds portals
     /// into clusters only its cluster's other portals see).

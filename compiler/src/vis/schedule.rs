@@ -50,7 +50,7 @@ pub(super) fn flow_all(
     let counts: Vec<u64> =
         order.iter().map(|&p| sightline_formats::bits::count(&test[p * words..(p + 1) * words])).collect();
     let nc = g.num_clusters();
-    let mut seeds = seeds::Seeds::new(nc);
+    let mut seeds = seeds::Seeds::new(n, nc);
     // A shard plan's waves are batches too ([`plan::wave_size`]).
     let batch = opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(n, w));
     let mut done = 0usize;
@@ -295,7 +295,8 @@ impl Run<'_> {
         cursor: &Cursor,
         boundary: &Mutex<Boundary<'_>>,
     ) {
-        let mut f = flow::Flow::new(self.words, self.g.num_clusters(), self.opts.level, self.opts.seeds);
+        let mut f =
+            flow::Flow::new(self.g.portals.len(), self.g.num_clusters(), self.opts.level, self.opts.seeds);
         // The rows, read-locked from a worker's first flow of a batch to its last: a batch is
         // folded (write-locked) only once all its flows are done, and a worker lets go before it
         // waits for the next batch.

@@ -44,9 +44,9 @@ pub use super::stats::MergeStats;
 use super::stats::VisStats;
 use super::{base, flow, graph, parallel, rows, seeds, state, symmetry};
 
-/// Identifies the shard file format and the flow's rules ("SLVISSH1"); a change of what a flow
-/// computes takes a new tag, as [`state`]'s does.
-const MAGIC: u64 = 0x534c_5649_5353_4831;
+/// Identifies the shard file format and the flow's rules ("SLVISSH2": certified seeds have a row
+/// per portal); a change of what a flow computes takes a new tag, as [`state`]'s does.
+const MAGIC: u64 = 0x534c_5649_5353_4832;
 
 /// The program version a shard's identity names.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -70,7 +70,7 @@ struct ShardFile {
     portals: u64,
     /// Words per row.
     words: u64,
-    /// Clusters (the range of seed pairs).
+    /// Clusters (the range of a seed pair's `to`; its `from` is a row of [`seeds::Seeds`]).
     clusters: u64,
     /// The one-way portals flowed, in the plan's order for this shard.
     units: Vec<u32>,
@@ -159,10 +159,10 @@ fn load(path: &Path, want: &Want<'_>) -> Result<Option<ShardFile>, VisError> {
     }) {
         Some(format!("the row of its portal {} has bits past the {} portals", f.units[i], want.portals))
     } else {
-        f.pairs
-            .iter()
-            .find(|p| p.iter().any(|&c| c as usize >= want.clusters))
-            .map(|p| format!("seed pair {p:?} out of range ({} clusters)", want.clusters))
+        let rows = seeds::Seeds::rows(want.portals, want.clusters);
+        f.pairs.iter().find(|&&[from, to]| from as usize >= rows || to as usize >= want.clusters).map(|p| {
+            format!("seed pair {p:?} out of range ({} portals, {} clusters)", want.portals, want.clusters)
+        })
     };
     match problem {
         Some(p) => Err(refuse(path, &format!("inconsistent vis shard ({p})"))),
@@ -214,7 +214,7 @@ impl<'g> Prepared<'g> {
         let layout = Layout::new(plan, &might, words, n);
         let mut test = might;
         symmetry::tighten_all(&mut test, words, n);
-        let seeds = seeds::Seeds::new(g.num_clusters());
+        let seeds = seeds::Seeds::new(g.portals.len(), g.num_clusters());
         let identity = identity(prt, &opts, plan, version);
         Self { opts, g, words, layout, identity, rows: Rows { test, seeds, quiet: 0 } }
     }
@@ -412,7 +412,7 @@ fn flow_units(
     let shard_phase = phase(progress, "vis shard", units.len() as u64);
     let trial = flow::trial_after(p.rows.quiet);
     parallel::on_every_thread(p.opts.threads, || {
-        let mut f = flow::Flow::new(p.words, nc, p.opts.level, p.opts.seeds);
+        let mut f = flow::Flow::new(p.g.portals.len(), nc, p.opts.level, p.opts.seeds);
         let mut mine = Vec::new();
         loop {
             let i = next.fetch_add(1, Ordering::AcqRel);

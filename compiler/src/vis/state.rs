@@ -34,14 +34,15 @@ use sightline_formats::hash::{FNV_OFFSET, fnv1a};
 use sightline_job::atomic::write_file_atomic;
 
 use super::error::VisError;
-use super::{flow, symmetry};
+use super::{flow, seeds, symmetry};
 
-/// Identifies the state format and the flow's rules ("SLVISST5": the log of batch boundaries
-/// with a checksum, written by flows that also record the clusters they saw as seeds, and whose
-/// beam-cull trial follows the flows folded before them). A run under other rules would continue
+/// Identifies the state format and the flow's rules ("SLVISST6": the log of batch boundaries
+/// with a checksum, written by flows that also record the clusters they saw as seeds, whose
+/// beam-cull trial follows the flows folded before them, and whose certified seeds have a row
+/// per portal ([`super::seeds`])). A run under other rules would continue
 /// a state differently from its own uninterrupted run, so a change of what the flow records takes
 /// a new tag.
-const MAGIC: u64 = 0x534c_5649_5353_5435;
+const MAGIC: u64 = 0x534c_5649_5353_5436;
 
 /// Bytes of the checksum trailer.
 const TRAILER: usize = 8;
@@ -57,7 +58,8 @@ pub struct State {
     pub portals: u64,
     /// Words per row.
     pub words: u64,
-    /// Number of clusters (the range of seed pairs).
+    /// Number of clusters (the range of a seed pair's `to`; its `from` is a row of
+    /// [`super::seeds::Seeds`], `portals + clusters` of them).
     pub clusters: u64,
     /// Portals of the processing order that are finished: a multiple of the batch size, or all.
     pub done: u64,
@@ -131,7 +133,7 @@ impl State {
 
     /// Rebuild the matrix and the seeds the batch boundaries had after the first `done` portals of
     /// `order`: `test` must hold the `mightsee` rows made consistent by
-    /// [`symmetry::tighten_all`], `seeds` zeros (`bits::words(clusters)` words per cluster).
+    /// [`symmetry::tighten_all`], `seeds` zeros (`bits::words(clusters)` words per seed row).
     /// Returns the run of quiet flows at that point ([`flow::quiet_after`]). Fails, with the
     /// reason, when the log is not one the boundaries could have written.
     pub fn replay(&self, order: &[usize], test: &mut [u64], seeds: &mut [u64]) -> Result<usize, String> {
@@ -160,8 +162,10 @@ impl State {
                     return Err("fewer seed pairs than counted".to_string());
                 };
                 let (from, to) = (from as usize, to as usize);
-                if from >= nc || to >= nc {
-                    return Err(format!("seed pair ({from}, {to}) out of range ({nc} clusters)"));
+                if from >= seeds::Seeds::rows(n, nc) || to >= nc {
+                    return Err(format!(
+                        "seed pair ({from}, {to}) out of range ({n} portals, {nc} clusters)"
+                    ));
                 }
                 let seed_row = &mut seeds[from * cw..(from + 1) * cw];
                 if bits::get(seed_row, to) {
@@ -179,13 +183,13 @@ impl State {
 
 /// An upper bound of the bytes a state log takes for `portals` one-way portals of `words` words
 /// and `clusters` clusters: every portal finished (its row, chains, cull flag and pair count) and every
-/// seed pair recorded (each pair is new when set, so at most `clusters²` of 8 bytes, 64 times the
-/// seed matrix), counted twice: saving encodes the whole log into one buffer beside it, and
-/// loading holds the file's bytes beside the decoded log.
+/// seed pair recorded (each pair is new when set, so at most a pair of 8 bytes per bit of the seed
+/// matrix, `(portals + clusters) × clusters`), counted twice: saving encodes the whole log into
+/// one buffer beside it, and loading holds the file's bytes beside the decoded log.
 pub fn bytes_bound(portals: u128, words: u128, clusters: u128) -> u128 {
     let per_portal = 8 * words + 8 + 1 + 4;
     let header = 8 * 8 + 5 * 8 + TRAILER as u128;
-    2 * (portals * per_portal + 8 * clusters * clusters + header)
+    2 * (portals * per_portal + 8 * (portals + clusters) * clusters + header)
 }
 
 fn config() -> bincode::config::Configuration<bincode::config::LittleEndian, bincode::config::Fixint> {
@@ -425,10 +429,11 @@ mod tests {
 
     #[test]
     fn bytes_bound_covers_a_full_log_and_its_encoding() {
-        // Every portal finished and every cluster pair recorded: the largest log of its counts.
+        // Every portal finished and every seed pair recorded: the largest log of its counts.
         let (portals, words, clusters) = (70usize, 2usize, 9u32);
         let mut st = State::new(1, portals, words, clusters as usize);
-        let all: Vec<(u32, u32)> = (0..clusters).flat_map(|a| (0..clusters).map(move |b| (a, b))).collect();
+        let rows = seeds::Seeds::rows(portals, clusters as usize) as u32;
+        let all: Vec<(u32, u32)> = (0..rows).flat_map(|a| (0..clusters).map(move |b| (a, b))).collect();
         for k in 0..portals {
             let pairs = if k + 1 == portals { all.clone() } else { Vec::new() };
             st.push(&vec![u64::MAX; words], u64::MAX, true, pairs);
@@ -446,22 +451,23 @@ mod tests {
 
     #[test]
     fn replay_refuses_rows_and_pairs_no_run_could_write() {
-        // 4 portals, 2 clusters; every portal might see every other.
+        // 4 portals, 2 clusters (6 seed rows); every portal might see every other.
         let order = [0, 1, 2, 3];
-        let fresh = || (vec![0b1111u64; 4], vec![0u64; 2]);
+        let fresh = || (vec![0b1111u64; 4], vec![0u64; 6]);
         let mut st = State::new(1, 4, 1, 2);
         st.push(&[0b1100], 1, true, [(0, 1)]);
-        st.push(&[0b1000], 1, false, [(1, 0)]);
+        st.push(&[0b1000], 1, false, [(5, 0)]);
         let (mut test, mut seeds) = fresh();
         let quiet = st.replay(&order, &mut test, &mut seeds).expect("a log a run could write");
         assert_eq!(quiet, 1, "one quiet flow since the last that dropped a portal");
-        assert_eq!(seeds, vec![0b10, 0b01]);
+        assert_eq!(seeds, vec![0b10, 0, 0, 0, 0, 0b01]);
         assert_eq!(&test[..2], &[0b1100, 0b1000]);
-        let bad: [fn(&mut State); 5] = [
+        let bad: [fn(&mut State); 6] = [
             |s| s.rows[0] |= 1 << 4, // a padding bit
             |s| s.rows[1] = 0b0010,  // a bit portal 0's boundary cleared from row 1
             |s| s.pairs[1] = [0, 1], // a pair set twice
-            |s| s.pairs[0] = [2, 0], // a cluster out of range
+            |s| s.pairs[0] = [6, 0], // a row out of range
+            |s| s.pairs[0] = [0, 2], // a cluster out of range
             |s| {
                 s.dropped.pop(); // a finished portal without its cull record
             },

@@ -568,14 +568,17 @@ fn a_walked_line_enters_the_clusters_it_crosses_portals_into_and_stops_at_a_wall
     let prt = corridor(&[0.0, 0.0, 0.0, 400.0], &[64.0; 4]);
     let g = graph::Graph::new(&prt);
     let (a, b) = (DVec3::new(10.0, 16.0, 16.0), DVec3::new(64.0, 16.0, 16.0));
-    // `b` lies on the portal from leaf 0 into leaf 1.
+    // `b` lies on the portal from leaf 0 into leaf 1. The walk gives the one-way portals it
+    // crosses, each out of the cluster the one before led into.
     let mut out = Vec::new();
+    let leaves = |out: &[u32]| out.iter().map(|&q| g.portals[q as usize].leaf).collect::<Vec<_>>();
     certify::walk(&g, a, b, 1, MAX_FLOW_DEPTH, &mut out);
-    assert_eq!(out, [2, 3]);
+    assert_eq!(leaves(&out), [2, 3]);
+    assert_eq!(out.iter().map(|&q| g.portals[q as usize].owner).collect::<Vec<_>>(), [1, 2]);
     // The limit bounds the walk; the clusters come in the order the line enters them.
     out.clear();
     certify::walk(&g, a, b, 1, 1, &mut out);
-    assert_eq!(out, [2]);
+    assert_eq!(leaves(&out), [2]);
     // Backwards, through leaf 1's portal into leaf 0 and on: leaf 0 has no other portal.
     out.clear();
     certify::walk(
@@ -586,13 +589,13 @@ fn a_walked_line_enters_the_clusters_it_crosses_portals_into_and_stops_at_a_wall
         MAX_FLOW_DEPTH,
         &mut out,
     );
-    assert_eq!(out, [0]);
+    assert_eq!(leaves(&out), [0]);
     // Along the top edge of the openings: twice the margin inside passes, half of it does not.
     for (inset, want) in [(2.0, vec![2, 3]), (0.5, vec![])] {
         let on_edge = DVec3::new(64.0, 32.0 - certify::CERTIFY_MARGIN * inset, 16.0);
         out.clear();
         certify::walk(&g, on_edge - DVec3::X, on_edge, 1, MAX_FLOW_DEPTH, &mut out);
-        assert_eq!(out, want, "{inset} margins inside the edge");
+        assert_eq!(leaves(&out), want, "{inset} margins inside the edge");
     }
 }
 
@@ -704,4 +707,23 @@ fn coarsened_generated_rooms_keep_every_pair_and_report_their_looseness() {
             assert!((0..3).all(|a| g.mins[a] <= g.centre[a] && g.centre[a] <= g.maxs[a]), "{file}: {g:?}");
         }
     }
+}
+
+#[test]
+fn a_clusters_portals_come_largest_first_ties_in_file_order() {
+    // Leaf 0 opens into leaves 1..=4 through squares of sides 8, 32, 16 and 32 side by side.
+    let sides = [8.0, 32.0, 16.0, 32.0];
+    let portals = sides
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| PrtPortal {
+            leaves: [0, i as u32 + 1],
+            winding: square_x(64.0, 40.0 * i as f64, 0.0, s, true),
+        })
+        .collect();
+    let g = graph::Graph::new(&PortalFile::prt1(5, portals));
+    let leaves: Vec<u32> = g.cluster_portals[0].iter().map(|&q| g.portals[q as usize].leaf).collect();
+    assert_eq!(leaves, [2, 4, 3, 1]);
+    // Each of leaves 1..=4 has one portal out, back into leaf 0.
+    assert!((1..5).all(|c| g.cluster_portals[c].len() == 1));
 }

@@ -559,7 +559,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
-/// Tampered copies of a vis state (`SLVISST5`: bincode with fixed-width little-endian integers —
+/// Tampered copies of a vis state (`SLVISST6`: bincode with fixed-width little-endian integers —
 /// magic, input hash, portals, words, clusters, done, then length-prefixed rows (u64), chains
 /// (u64), cull flags (one byte each), added (u32) and pairs (2 × u32) — and an FNV-1a trailer):
 /// a flipped byte, and, with the checksum made right, a padding bit set in each finished row's
@@ -572,7 +572,7 @@ fn tampered_states(bytes: &[u8]) -> Vec<(String, Vec<u8>)> {
         b[n..].copy_from_slice(&sum.to_le_bytes());
         b
     };
-    assert_eq!(&bytes[..8], &0x534c_5649_5353_5435u64.to_le_bytes(), "a SLVISST5 state");
+    assert_eq!(&bytes[..8], &0x534c_5649_5353_5436u64.to_le_bytes(), "a SLVISST6 state");
     let (portals, words, done) = (u64_at(bytes, 16), u64_at(bytes, 24) as usize, u64_at(bytes, 40) as usize);
     assert!(done > 0 && portals % 64 != 0, "{done} finished portals; {portals} leave padding bits");
     let mut out = Vec::new();
