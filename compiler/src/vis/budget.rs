@@ -234,10 +234,11 @@ pub(super) fn check_memory(
     limit: Option<(u64, crate::memory::LimitSource)>,
 ) -> Result<(), VisError> {
     let need = memory_estimate(prt, opts);
-    // Which matrices dominate, for the message: two portal × portal, four cluster × cluster.
+    // Which matrices dominate, for the message: two portal × portal, or those of cluster rows
+    // (three cluster × cluster, and the seeds' two of a row per portal and per cluster).
     let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
     let portal_matrices = 2 * one_way * bits::words(one_way as usize) as u128;
-    let cluster_matrices = 4 * nc * bits::words(nc as usize) as u128;
+    let cluster_matrices = (3 * nc + 2 * (one_way + nc)) * bits::words(nc as usize) as u128;
     match limit {
         Some((limit, source_of_limit)) if need > limit => Err(VisError::Memory {
             need,
