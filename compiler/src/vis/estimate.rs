@@ -8,7 +8,10 @@
 //! 2026-11-29), while the chains per portal vary by four orders of magnitude. A portal that might
 //! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^2.2 / `n`^0.6 chains
 //! ([`chains`]): on open maps the late portals find few branches cut by seeds or narrowed rows,
-//! so chains grow faster than `m`, and longer rows narrow more. A chain is priced at
+//! so chains grow faster than `m`, and longer rows narrow more. But never more than the clusters
+//! there are: a chain goes on only while something beyond it is new, and the open maps'
+//! flows made 0.5–0.8 chains per portal per cluster. Without that cap, a map merged into a few
+//! dozen clusters (`--coarsen`) was predicted millions of chains per portal, for 4 made. A chain is priced at
 //! [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and thread count.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
 //! Measured in `docs/benchmarks.md` (2026-11-29).
@@ -26,13 +29,14 @@ pub const CHAINS_SCALE: f64 = 0.0163;
 /// (their own ratios 0.3–2.0 times it).
 pub const CHAIN_PER_BASE_TEST: f64 = 160.0;
 
-/// The predicted chains of a portal that might see `mightsee` of `portals` one-way portals:
-/// at least 1, so every portal counts. Monotone in `mightsee`.
-pub fn chains(mightsee: u64, portals: usize) -> u64 {
+/// The predicted chains of a portal that might see `mightsee` of `portals` one-way portals, in a
+/// map of `clusters` clusters: the model's count capped at `clusters`, plus 1 so every portal
+/// counts. Monotone in `mightsee`.
+pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
     let m = mightsee as f64;
     let predicted = CHAINS_SCALE * m.powf(2.2) / (portals.max(1) as f64).powf(0.6);
     // `as` saturates: a huge prediction stays finite.
-    (predicted.ceil() as u64).saturating_add(1)
+    (predicted.ceil() as u64).min(clusters as u64).saturating_add(1)
 }
 
 /// Seconds predicted for `work` chains (a sum of [`chains`]) by a run whose base vis made
@@ -121,7 +125,7 @@ mod tests {
     use sightline_job::rng::SplitMix64;
 
     fn flow_work(mightsee: impl IntoIterator<Item = u64>, portals: usize) -> u64 {
-        mightsee.into_iter().map(|m| chains(m, portals)).fold(0, u64::saturating_add)
+        mightsee.into_iter().map(|m| chains(m, portals, usize::MAX)).fold(0, u64::saturating_add)
     }
 
     /// The estimate is monotone in the work it predicts: raising a portal's `mightsee`, or
@@ -152,10 +156,15 @@ mod tests {
     }
 
     #[test]
-    fn chains_grow_faster_than_mightsee_and_slower_on_longer_rows() {
-        assert!(chains(2_000, 5_000) > 2 * chains(1_000, 5_000));
-        assert!(chains(1_000, 10_000) < chains(1_000, 5_000));
-        assert_eq!(chains(0, 0), 1);
+    fn chains_grow_faster_than_mightsee_and_slower_on_longer_rows_up_to_the_clusters() {
+        let many = usize::MAX;
+        assert!(chains(2_000, 5_000, many) > 2 * chains(1_000, 5_000, many));
+        assert!(chains(1_000, 10_000, many) < chains(1_000, 5_000, many));
+        assert_eq!(chains(0, 0, 0), 1);
+        // A merged map: every portal might see every other, but there are 73 clusters.
+        assert!(chains(87_000, 87_000, many) > 1_000_000);
+        assert_eq!(chains(87_000, 87_000, 73), 74);
+        assert!((0..100_000).step_by(997).all(|m| chains(m, 87_000, 73) <= chains(m + 1, 87_000, 73)));
     }
 
     #[test]

@@ -82,7 +82,7 @@ pub(super) fn flow_all(
     }
     // The estimate, for the portals left.
     stats.flow_estimate_work =
-        counts[done..].iter().map(|&m| estimate::chains(m, n)).fold(0, |a, w| a.saturating_add(w));
+        counts[done..].iter().map(|&m| estimate::chains(m, n, nc)).fold(0, |a, w| a.saturating_add(w));
     stats.flow_estimate_seconds =
         estimate::flow_seconds(stats.flow_estimate_work, stats.base_seconds, stats.base_tests);
     let say = stats.flow_estimate_seconds >= estimate::SAY_SECONDS;
