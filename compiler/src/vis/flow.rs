@@ -500,9 +500,10 @@ impl Flow {
         on.extend(line.iter().map(|&q| g.portals[q as usize].leaf));
         let paired = behind + chain[k].paired;
         for j in 1..on.len() {
+            let back = seeds.through(line[j - 1] ^ 1);
             for i in (0..j).filter(|&i| i < behind || j >= paired) {
                 seeds.record(&mut self.recorded, seeds.through(line[i]), on[j]);
-                seeds.record(&mut self.recorded, seeds.through(line[j - 1] ^ 1), on[i]);
+                seeds.record(&mut self.recorded, back, on[i]);
             }
         }
         self.frames[k].paired = chain_end - behind + 1;
