@@ -347,12 +347,11 @@ impl Flow {
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
             // Worth testing: into an unseen cluster, or with a portal not yet covered beyond it
-            // (`Frame::worth`; only the frame's open words can hold one). Without the latter,
-            // only whether `p` itself is visible is left to decide. `deeper` is found before `p`
-            // covers its own portals.
+            // (`Frame::worth`). Into an unseen cluster, whether anything lies beyond is asked only
+            // once `p` has passed every test (reading `p`'s row is a cache miss on big maps, and
+            // most such targets die first), still before `p` covers its own portals.
             let unseen = !bits::get(&self.seen, p.leaf as usize);
-            let deeper = prev.open.iter().any(|&w| prev.might[w] & trow[w] & !self.vis[w] != 0);
-            if !unseen && !deeper {
+            if !unseen && !prev.leads_on(trow, &self.vis) {
                 continue;
             }
             // Tests 3 and 4 already narrowed `prev.source` in `cull_beyond_beam`: a frame gets
@@ -404,7 +403,8 @@ impl Flow {
                 // has a target worth testing (see `narrow_source`).
                 next.narrow = self.level > 2;
             }
-            if !bits::get(&self.seen, p.leaf as usize) {
+            let deeper = !unseen || self.frames[d].leads_on(trow, &self.vis);
+            if unseen {
                 self.see(g, p.leaf);
                 if self.seeding {
                     self.certify(g, seeds, d + 1);
@@ -626,8 +626,14 @@ impl Frame {
     /// many portals (merged by `coarsen`) costs its portals times those words, not times the row.
     #[inline]
     fn worth(&self, g: &Graph, pi: usize, trow: &[u64], seen: &[u64], vis: &[u64]) -> bool {
-        !bits::get(seen, g.portals[pi].leaf as usize)
-            || self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0)
+        !bits::get(seen, g.portals[pi].leaf as usize) || self.leads_on(trow, vis)
+    }
+
+    /// `might` and `trow` (the row of a target) share a portal not yet covered in `vis`: beyond
+    /// the target lies something new. Only the frame's [`Frame::open`] words can hold one.
+    #[inline]
+    fn leads_on(&self, trow: &[u64], vis: &[u64]) -> bool {
+        self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0)
     }
 
     /// Compute list `k` of the separators of (`source`, `pass`) (0: normal order, 1: flipped)

@@ -177,12 +177,16 @@ impl Poly {
     /// holds the input and stays convex, so clipping by it only keeps more.
     pub fn simplify(&mut self, max: usize, share: f64, bound: &Sphere) {
         let normal = self.normal;
+        if self.n <= max.max(3) {
+            return;
+        }
+        // Twice the area (grown by each removal), and twice the area each removal would add.
+        let pts = &self.p[..self.n];
+        let mut area =
+            (1..pts.len() - 1).map(|i| (pts[i] - pts[0]).cross(pts[i + 1] - pts[0]).dot(normal)).sum::<f64>();
         while self.n > max.max(3) {
             let n = self.n;
             let pts = &self.p[..n];
-            // Twice the area, and twice the area each removal would add.
-            let area =
-                (1..n - 1).map(|i| (pts[i] - pts[0]).cross(pts[i + 1] - pts[0]).dot(normal)).sum::<f64>();
             let mut best: Option<(f64, usize, DVec3)> = None;
             for i in 0..n {
                 let (a, u) = (pts[(i + n - 1) % n], pts[i]);
@@ -198,7 +202,7 @@ impl Poly {
                     continue;
                 }
                 let x = u + du * s;
-                if !x.is_finite() || x.distance(bound.center) >= bound.radius {
+                if !x.is_finite() || x.distance_squared(bound.center) >= bound.radius * bound.radius {
                     continue;
                 }
                 let added = e.cross(x - u).dot(normal).abs();
@@ -216,6 +220,7 @@ impl Poly {
             self.p[i] = x;
             self.p.copy_within(j + 1..n, j);
             self.n = n - 1;
+            area += added;
         }
     }
 }
