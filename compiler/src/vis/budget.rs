@@ -6,7 +6,7 @@ use sightline_formats::prt::PortalFile;
 
 use super::error::VisError;
 use super::options::VisOptions;
-use super::{base, flow, graph, state};
+use super::{base, flow, graph, seeds, state};
 
 /// Portals per deterministic flow batch (a portal sees the results of earlier batches only) for
 /// an input estimated at `100 ×` [`SERIAL_WORK`] or more: long runs on every core, whose batches
@@ -92,6 +92,17 @@ impl Counts {
     }
 }
 
+/// Cluster × cluster matrices a run holds: the result, its snapshot for symmetry, and the
+/// `mightsee` rows' result.
+const CLUSTER_MATRICES: u128 = 3;
+
+/// Rows of cluster bits the seeds take for `one_way` portals and `nc` clusters: the known seeds
+/// and the batch's pending ones, each a matrix of [`seeds::Seeds::rows`].
+fn seed_rows(one_way: u128, nc: u128) -> u128 {
+    // Both counts come from lengths in memory, so they fit a `usize`.
+    2 * seeds::Seeds::rows(one_way as usize, nc as usize) as u128
+}
+
 /// [`memory_estimate`] from the counts, for `opts.threads` threads (resolved: at least one).
 pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let threads = opts.threads.max(1) as u128;
@@ -110,13 +121,13 @@ pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
         matrices += one_way * row;
         // The seeds (known and pending), and the checkpoint log (a row per portal and up to
         // every seed pair, with its encoding while saved or loaded).
-        matrices += 2 * (one_way + nc) * cluster_row;
+        matrices += seed_rows(one_way, nc) * cluster_row;
         if opts.state.is_some() {
             matrices += state::bytes_bound(one_way, row / 8, nc);
         }
     }
-    // Cluster rows: the result, its snapshot for symmetry, and the `mightsee` rows' result.
-    let clusters = 3 * nc * cluster_row + u128::from(counts.leaves) * 8 + nc * 24;
+    // The cluster rows ([`CLUSTER_MATRICES`]), and 8 bytes a leaf and 24 a cluster besides.
+    let clusters = CLUSTER_MATRICES * nc * cluster_row + u128::from(counts.leaves) * 8 + nc * 24;
     // Base vis's `entered` clusters and flood stack (each cluster once), the cluster rows' portal
     // row; with the flow, its state and the row it fills.
     let mut per_thread = row + cluster_row + 4 * nc;
@@ -238,7 +249,8 @@ pub(super) fn check_memory(
     // (three cluster × cluster, and the seeds' two of a row per portal and per cluster).
     let (one_way, nc) = (2 * prt.portals.len() as u128, u128::from(prt.num_clusters));
     let portal_matrices = 2 * one_way * bits::words(one_way as usize) as u128;
-    let cluster_matrices = (3 * nc + 2 * (one_way + nc)) * bits::words(nc as usize) as u128;
+    let cluster_matrices =
+        (CLUSTER_MATRICES * nc + seed_rows(one_way, nc)) * bits::words(nc as usize) as u128;
     match limit {
         Some((limit, source_of_limit)) if need > limit => Err(VisError::Memory {
             need,

@@ -9,10 +9,13 @@
 //! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^2.2 / `n`^0.6 chains
 //! ([`chains`]): on open maps the late portals find few branches cut by seeds or narrowed rows,
 //! so chains grow faster than `m`, and longer rows narrow more. But never more than the clusters
-//! there are: a chain goes on only while something beyond it is new, and the open maps'
-//! flows made 0.5–0.8 chains per portal per cluster. Without that cap, a map merged into a few
-//! dozen clusters (`--coarsen`) was predicted millions of chains per portal, for 4 made. A chain is priced at
-//! [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and thread count.
+//! there are: a chain goes on only while something beyond it is new, and the open maps' flows
+//! made 0.5–0.8 chains per portal per cluster. Without that cap, a map merged into a few dozen
+//! clusters (`--coarsen`) was predicted millions of chains per portal, for 4 made. A chain is
+//! priced at [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and
+//! thread count. Merged clusters break the model both ways: on the 10,000-brush room merged to
+//! 73 clusters a chain costs about 136 µs (a frame walks its cluster's thousands of portals) and
+//! the cap still counts 18 times the chains made, so the first estimate is about 3× short there.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
 //! Measured in `docs/benchmarks.md` (2026-11-29).
 

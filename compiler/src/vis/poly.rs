@@ -176,15 +176,15 @@ impl Poly {
     /// point lies inside `bound` (which must hold the winding, and so still does). The result
     /// holds the input and stays convex, so clipping by it only keeps more.
     pub fn simplify(&mut self, max: usize, share: f64, bound: &Sphere) {
-        let normal = self.normal;
-        if self.n <= max.max(3) {
+        let (normal, max) = (self.normal, max.max(3));
+        if self.n <= max {
             return;
         }
         // Twice the area (grown by each removal), and twice the area each removal would add.
         let pts = &self.p[..self.n];
         let mut area =
             (1..pts.len() - 1).map(|i| (pts[i] - pts[0]).cross(pts[i + 1] - pts[0]).dot(normal)).sum::<f64>();
-        while self.n > max.max(3) {
+        while self.n > max {
             let n = self.n;
             let pts = &self.p[..n];
             let mut best: Option<(f64, usize, DVec3)> = None;
