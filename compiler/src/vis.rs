@@ -58,6 +58,7 @@ mod certify;
 pub mod coarsen;
 mod error;
 pub mod estimate;
+mod explored;
 pub mod farplane;
 mod flow;
 mod graph;
