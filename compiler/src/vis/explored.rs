@@ -14,8 +14,9 @@
 //! A frame is kept once explored, with its source as tests 3 and 4 narrowed it and its `might` as
 //! beam culls left it (a subset of what it held on entry: it covers less). Only frames whose
 //! exploration visited at least [`KEEP_CHAINS`] chains are kept: a smaller one is cheaper to
-//! explore again than to keep and check. Storage is bounded per thread ([`EXPLORED_ROWS`]);
-//! once a flow has filled it, its later frames are still checked but no more are kept.
+//! explore again than to keep and check. Storage is bounded per thread ([`EXPLORED_ROWS`], the
+//! lists earlier flows left allocated included); once a flow has filled it, its later frames are
+//! still checked but no more are kept.
 //!
 //! Containment is tested against each kept winding's edges: every point of the new winding at
 //! most [`TOUCH_EPSILON`] outside every edge. A winding sliver that thin passes no sight
@@ -27,11 +28,13 @@ use sightline_formats::bits;
 
 use super::poly::{Poly, TOUCH_EPSILON};
 
-/// The most bytes a thread keeps for explored frames (their `might` words, windings and boxes),
-/// in rows of `might`: the store of a map with `n` one-way portals holds up to this many times
-/// `n / 8` bytes, at most [`EXPLORED_BYTES`]. On the generated `terrain_32` (our own portals, 63
-/// words a row) a flow fills at most 4.6 MB; with 8,192 rows (4.1 MB) it visits 2.81 M chains,
-/// with 4,096 2.95 M, with 16 MiB 2.80 M, and without the store 4.05 M.
+/// The most bytes a thread allocates for explored frames (their `might` words, windings and
+/// boxes, counted by capacity), in rows of `might`: the store of a map with `n` one-way portals
+/// holds up to this many times `n / 8` bytes, at most [`EXPLORED_BYTES`]. On the generated
+/// `terrain_32` (our own portals, 63 words a row) a flow would use 4.6 MB at most; with 8,192 rows
+/// (4.1 MB) it visits 2.90 M chains, and 4.05 M without the store. (Counting use rather than
+/// capacity, which bounds the memory less tightly: 4,096 rows 2.95 M, 8,192 rows 2.81 M, 16 MiB
+/// 2.80 M.)
 pub const EXPLORED_ROWS: usize = 8192;
 
 /// The most bytes a thread keeps for explored frames, whatever the map.
@@ -69,8 +72,10 @@ pub struct Explored {
     has: Vec<u64>,
     /// Portals with entries this flow.
     touched: Vec<u32>,
-    /// Entries kept this flow.
-    entries: usize,
+    /// Portals whose list holds an allocation (kept from flow to flow), and its bytes in all:
+    /// released together once over an eighth of the bound.
+    holding: Vec<u32>,
+    held: usize,
     words: Vec<u64>,
     points: Vec<DVec3>,
     /// The most bytes kept ([`EXPLORED_ROWS`]).
@@ -84,7 +89,8 @@ impl Explored {
             by_portal: vec![Vec::new(); portals],
             has: vec![0; bits::words(portals)],
             touched: Vec::new(),
-            entries: 0,
+            holding: Vec::new(),
+            held: 0,
             words: Vec::new(),
             points: Vec::new(),
             bound: Self::bound(portals),
@@ -96,7 +102,8 @@ impl Explored {
         EXPLORED_ROWS.saturating_mul(8 * bits::words(portals)).min(EXPLORED_BYTES)
     }
 
-    /// The bytes kept for `portals` one-way portals at most.
+    /// The bytes kept for `portals` one-way portals at most: the lists' headers, one bit each,
+    /// and the bound (on the vectors' capacities).
     pub fn bytes(portals: usize) -> u128 {
         ((std::mem::size_of::<Vec<Entry>>() + 1) * portals + Self::bound(portals)) as u128
     }
@@ -108,16 +115,24 @@ impl Explored {
             bits::clear(&mut self.has, p as usize);
         }
         self.touched.clear();
-        self.entries = 0;
+        if self.held > self.bound / 8 {
+            for &p in &self.holding {
+                self.by_portal[p as usize] = Vec::new();
+            }
+            self.holding.clear();
+            self.held = 0;
+        }
         self.words.clear();
         self.points.clear();
     }
 
+    /// Bytes allocated: the lists' (also those of earlier flows, still held), and the
+    /// capacities of the `might` words, the points and the portal lists.
     fn used(&self) -> usize {
-        self.entries * std::mem::size_of::<Entry>()
-            + self.words.len() * 8
-            + self.points.len() * std::mem::size_of::<DVec3>()
-            + self.touched.len() * 4
+        self.held
+            + self.words.capacity() * 8
+            + self.points.capacity() * std::mem::size_of::<DVec3>()
+            + (self.touched.capacity() + self.holding.capacity()) * 4
     }
 
     /// A frame entered through `portal` with these windings and `might` (zero outside words
@@ -157,10 +172,19 @@ impl Explored {
     /// full.
     pub fn keep(&mut self, portal: usize, source: &Poly, pass: &Poly, might: &[u64], lo: usize, hi: usize) {
         let (lo, hi) = if lo < hi { (lo, hi) } else { (0, 0) };
-        let more = std::mem::size_of::<Entry>()
-            + 4
-            + 8 * (hi - lo)
-            + std::mem::size_of::<DVec3>() * (source.n + pass.n);
+        let list = &self.by_portal[portal];
+        let capacity = list.capacity();
+        let caps = [
+            grown(&self.words, hi - lo),
+            grown(&self.points, source.n + pass.n),
+            grown(list, 1),
+            grown(&self.touched, 1),
+            grown(&self.holding, 1),
+        ];
+        let more = (caps[0] - self.words.capacity()) * 8
+            + (caps[1] - self.points.capacity()) * std::mem::size_of::<DVec3>()
+            + (caps[2] - capacity) * std::mem::size_of::<Entry>()
+            + (caps[3] - self.touched.capacity() + caps[4] - self.holding.capacity()) * 4;
         if self.used() + more > self.bound {
             return;
         }
@@ -172,6 +196,10 @@ impl Explored {
         ) else {
             return;
         };
+        reserve(&mut self.words, caps[0]);
+        reserve(&mut self.points, caps[1]);
+        reserve(&mut self.touched, caps[3]);
+        reserve(&mut self.holding, caps[4]);
         self.words.extend_from_slice(&might[lo..hi]);
         self.points.extend_from_slice(&source.p[..source.n]);
         self.points.extend_from_slice(&pass.p[..pass.n]);
@@ -187,12 +215,31 @@ impl Explored {
             high: high.map(|x| -down(-(x + TOUCH_EPSILON))),
         };
         let list = &mut self.by_portal[portal];
+        reserve(list, caps[2]);
+        self.held += (list.capacity() - capacity) * std::mem::size_of::<Entry>();
+        if capacity == 0 {
+            self.holding.push(portal as u32);
+        }
         if list.is_empty() {
             self.touched.push(portal as u32);
             bits::set(&mut self.has, portal);
         }
         list.push(entry);
-        self.entries += 1;
+    }
+}
+
+/// The capacity `v` grows to for `extra` more elements: its own while they fit, else a quarter
+/// more, at least what they need and 4. (Capacity counts toward the bound, so doubling would
+/// leave up to half of it unused.)
+fn grown<T>(v: &Vec<T>, extra: usize) -> usize {
+    let need = v.len() + extra;
+    if need <= v.capacity() { v.capacity() } else { (v.capacity() + v.capacity() / 4).max(need).max(4) }
+}
+
+/// Grow `v` to exactly `capacity` (when larger than its own).
+fn reserve<T>(v: &mut Vec<T>, capacity: usize) {
+    if capacity > v.capacity() {
+        v.reserve_exact(capacity - v.len());
     }
 }
 
@@ -287,8 +334,26 @@ mod tests {
             ex.keep(1, &w, &w, &row, 0, row.len());
             assert!(ex.used() <= ex.bound);
         }
-        assert!(ex.entries > 0 && ex.entries < ex.bound / (8 << 16));
+        let kept = ex.by_portal[1].len();
+        assert!(kept > 0 && kept < ex.bound / (8 << 16));
         assert!(ex.covers(1, &w, &w, &row, 0, row.len()), "what was kept still covers");
+    }
+
+    #[test]
+    fn lists_held_from_earlier_flows_count_and_are_released() {
+        let mut ex = Explored::new(64);
+        let w = square(0.0, 0.0, 1.0);
+        // Each flow keeps frames through other portals: what earlier flows' lists hold counts
+        // toward the bound until it is released.
+        for flow in 0..64 {
+            for _ in 0..32 {
+                ex.keep(flow, &w, &w, &[1], 0, 1);
+            }
+            assert!(ex.used() <= ex.bound, "flow {flow}");
+            ex.clear();
+            assert!(ex.held <= ex.bound / 8, "flow {flow}: {} held", ex.held);
+        }
+        assert!(ex.holding.len() < 64, "some lists were released");
     }
 
     proptest! {
