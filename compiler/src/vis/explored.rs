@@ -57,7 +57,7 @@ struct Entry {
     points: u32,
     source_points: u16,
     pass_points: u16,
-    /// Its pass's bounding box, rounded outward: a pass inside its pass is inside the box.
+    /// Its pass's bounding box, rounded outward: a winding inside the pass is inside the box.
     low: [f32; 3],
     high: [f32; 3],
 }

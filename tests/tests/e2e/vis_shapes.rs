@@ -44,9 +44,10 @@ fn assert_no_sampled_misses(maps: &[(&str, String)]) {
     for (name, text) in maps {
         let level = compiled_level(text, name);
         assert!(level.has_vis(), "{name} has a PVS");
-        let pvs = level_pvs(&level).unwrap();
+        let pvs = level_pvs(&level).unwrap_or_else(|e| panic!("{name}: {e}"));
         let opts = Options { rays: 300_000, oracle: OracleChoice::Both, ..Options::default() };
-        let v = validate(&level, &pvs, &opts, &sightline_validate::NoProgress).unwrap();
+        let v = validate(&level, &pvs, &opts, &sightline_validate::NoProgress)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(v.report.misses(), 0, "{name}: {}", v.report.text());
         assert!(v.report.oracles.iter().all(|o| o.sampled_pairs > 0), "{name}: {}", v.report.text());
     }
