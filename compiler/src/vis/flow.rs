@@ -49,7 +49,8 @@
 //! source, pass and `might` lie inside those of one kept for the same portal is not explored
 //! again: its lines are a subset of that frame's, which found everything they reach. On the
 //! generated terrain and city maps a flow enters most portals more than once, along different
-//! routes; skipping the covered frames visits 31–37 % fewer chains there for the same PVS.
+//! routes; on ericw-tools' files of them, skipping the covered frames visits 26–52 % fewer chains
+//! for the same PVS (the arenas: 0.4–1.1 %).
 //!
 //! Depth: a chain is followed at most [`MAX_FLOW_DEPTH`] frames deep; there every portal still in
 //! the frame's `might` counts as seen, which can only keep more. A thread's frames, and the
