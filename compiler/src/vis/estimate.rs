@@ -4,8 +4,8 @@
 //!
 //! # The model
 //! The flow's cost is its chains (recursive calls, one portal deeper each): a chain costs about
-//! the same anywhere (2.4–4.2 µs of CPU on the shared and the heavy maps alike, measured
-//! 2026-11-29), while the chains per portal vary by four orders of magnitude. A portal that might
+//! the same anywhere (1.1–2.0 µs of CPU per flow on the shared and the heavy maps alike on an AMD
+//! EPYC host, 2026-11-29), while the chains per portal vary by four orders of magnitude. A portal that might
 //! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^2.2 / `n`^0.6 chains
 //! ([`chains`]): on open maps the late portals find few branches cut by seeds or narrowed rows,
 //! so chains grow faster than `m`, and longer rows narrow more. But never more than the clusters
@@ -17,7 +17,9 @@
 //! 73 clusters a chain costs about 136 µs (a frame walks its cluster's thousands of portals) and
 //! the cap still counts 18 times the chains made, so the first estimate is about 3× short there.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
-//! Measured in `docs/benchmarks.md` (2026-11-29).
+//! How far off the first estimate is, and why no richer model or early sample did better (a
+//! flow's chains depend on how far earlier flows narrowed its row): `docs/benchmarks.md`,
+//! 2026-11-29, sessions 21 and 22.
 
 use std::time::Instant;
 
