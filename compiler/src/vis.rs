@@ -83,8 +83,8 @@ use sightline_job::progress::{Progress, phase};
 
 pub use base::COPLANAR_EPSILON;
 pub use budget::{
-    COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, WORK_PER_SECOND, flow_batch, memory_estimate,
-    work_estimate,
+    CHAIN_CAP_FACTOR, COARSEN_MAX_WORK, FLOW_BATCH, FLOW_BATCHES, SERIAL_WORK, WORK_PER_SECOND, flow_batch,
+    memory_estimate, work_estimate,
 };
 pub use error::VisError;
 pub use flow::MAX_FLOW_DEPTH;
@@ -93,16 +93,21 @@ pub use poly::{CLIP_EPSILON, SEPARATOR_EPSILON, TOUCH_EPSILON};
 pub use rows::ROWS_SERIAL_WORDS;
 pub use stats::{MergedGroup, VisResult, VisStats};
 
-use budget::{check_memory, check_work, thread_count, work_limit};
+use budget::{chain_cap, check_memory, check_work, thread_count, work_limit};
 use error::panic_error;
 use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
-use schedule::flow_all;
+use schedule::{flow_all, state_hash};
 
 /// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
 /// per finished portal (from worker threads), a note when clusters are merged to fit the limits,
 /// the flow's estimated time when it is long ([`estimate`], refined at each tenth of its
 /// progress) and a warning, once done, that the merged PVS is looser (and by how much);
 /// [`VisOptions::cancel`] stops the run at its next batch boundary.
+///
+/// A flow on merged clusters that makes more chains than [`CHAIN_CAP_FACTOR`] times its work
+/// estimate allows is given up at a batch boundary, and the clusters are merged further (each
+/// time under half the previous merge's work estimate), with a note; a state file of the merge
+/// given up is deleted, and a resumed run takes up the merge its state file belongs to.
 pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
     // The thread count and the memory limit, each found once.
     let opts = &checked_input(prt, opts)?;
@@ -110,7 +115,7 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     // Merges are sized for one thread, so every thread count merges alike (and gives the same
     // PVS); the run then has to fit with its own threads. Shards flow the input as it is.
     let single = VisOptions { threads: 1, ..opts.clone() };
-    let coarse = match check_memory(prt, &single, memory).and_then(|()| check_work(prt, opts)) {
+    let mut merging = match check_memory(prt, &single, memory).and_then(|()| check_work(prt, opts)) {
         Err(e @ (VisError::Memory { .. } | VisError::Work { .. }))
             if opts.coarsen && opts.merge.is_none() =>
         {
@@ -123,18 +128,29 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
                 "vis does not fit its memory or work limit: merging {} clusters into {} (--coarsen)",
                 coarse.stats.clusters_before, coarse.stats.clusters_after
             ));
-            Some(coarse)
+            Some(resumed_merge(prt, &single, opts, Merging { coarse, limits, retries: 0, capped: true }))
         }
         Err(e) => return Err(e),
         Ok(()) => None,
     };
-    let input = coarse.as_ref().map_or(prt, |c| &c.prt);
-    check_memory(input, opts, memory)?;
-    check_work(input, opts)?;
-    let compute = || run_phases(input, opts, progress);
-    // Each parallel phase starts and ends its own threads (`parallel`).
-    let mut result = std::panic::catch_unwind(AssertUnwindSafe(compute)).map_err(panic_error)??;
-    if let Some(c) = coarse {
+    let mut result = loop {
+        let input = merging.as_ref().map_or(prt, |m| &m.coarse.prt);
+        check_memory(input, opts, memory)?;
+        check_work(input, opts)?;
+        let cap = merging.as_ref().filter(|m| m.capped && m.retries < MAX_RETRIES).map(|m| m.cap(opts));
+        let compute = || run_phases(input, opts, progress, cap);
+        // Each parallel phase starts and ends its own threads (`parallel`).
+        if let Some(result) = std::panic::catch_unwind(AssertUnwindSafe(compute)).map_err(panic_error)?? {
+            break result;
+        }
+        // Over the cap (so merging): the state file, if any, belongs to the merge given up.
+        if let Some(path) = &opts.state {
+            let _ = std::fs::remove_file(path);
+        }
+        merging = merging.map(|m| m.further(prt, &single, progress));
+    };
+    if let Some(Merging { coarse: mut c, retries, .. }) = merging {
+        c.stats.retries = retries;
         result = coarsen::expand(result, prt, &c.new_id);
         let largest = c.stats.largest_groups.first().map_or_else(String::new, |k| {
             let [x, y, z] = k.centre;
@@ -157,6 +173,79 @@ pub fn run(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Resu
     result.stats.threads = opts.threads;
     result.stats.work_estimate = work_estimate(prt, opts);
     Ok(result)
+}
+
+/// Merges given up at most (then the last one flows to its end): each halves the work limit, so
+/// sixteen reach a sixty-five-thousandth of the first merge's estimate.
+const MAX_RETRIES: u32 = 16;
+
+/// A run on merged clusters: the merge, the limits it was fitted to and the merges given up.
+struct Merging {
+    coarse: coarsen::Coarse,
+    limits: coarsen::Limits,
+    retries: u32,
+    /// Its flow stops over [`Merging::cap`] (until no coarser merge fits).
+    capped: bool,
+}
+
+impl Merging {
+    /// The chains the flow on this merge may make ([`chain_cap`]).
+    fn cap(&self, opts: &VisOptions) -> u64 {
+        #[cfg(test)]
+        if let Some(cap) = opts.chain_cap {
+            return cap;
+        }
+        let _ = opts;
+        chain_cap(&self.coarse.prt)
+    }
+
+    /// The next merge: the least merging under half this one's work estimate, if it has fewer
+    /// clusters.
+    fn next(&self, prt: &PortalFile, single: &VisOptions) -> Option<coarsen::Coarse> {
+        let limits = coarsen::Limits { work: self.coarse.stats.work / 2, ..self.limits };
+        coarsen::fit(prt, single, limits)
+            .filter(|c| c.stats.clusters_after < self.coarse.stats.clusters_after)
+    }
+
+    /// Give this merge up for the next ([`Merging::next`]), saying so; without one, flow this
+    /// merge again to its end (the cap lifted).
+    fn further(self, prt: &PortalFile, single: &VisOptions, progress: &dyn Progress) -> Self {
+        let Some(coarse) = self.next(prt, single) else {
+            progress.note(&format!(
+                "vis flow on {} merged clusters made more chains than its estimate allows, and no coarser merge fits: flowing it to its end",
+                self.coarse.stats.clusters_after
+            ));
+            return Self { capped: false, ..self };
+        };
+        progress.note(&format!(
+            "vis flow on {} merged clusters made more than {}× the chains its estimate allows: merging into {} (--coarsen)",
+            self.coarse.stats.clusters_after, CHAIN_CAP_FACTOR, coarse.stats.clusters_after
+        ));
+        Self { coarse, limits: self.limits, retries: self.retries + 1, capped: true }
+    }
+}
+
+/// With a state file, the merge it belongs to: the first merge, or one an earlier run reached by
+/// giving merges up (the same steps, so the same merges). The last merge (none coarser fits)
+/// resumes uncapped: its capped and uncapped flows are the same until the cap, so either run
+/// goes on alike. A file of no merge is left for the flow to refuse, as for any other input.
+fn resumed_merge(prt: &PortalFile, single: &VisOptions, opts: &VisOptions, first: Merging) -> Merging {
+    let Some(saved) = opts.state.as_deref().and_then(state::input_hash_of) else {
+        return first;
+    };
+    let mut next = first.next(prt, single);
+    if state_hash(&first.coarse.prt, opts) == saved {
+        return Merging { capped: next.is_some(), ..first };
+    }
+    for retries in 1..MAX_RETRIES {
+        let Some(coarse) = next else { break };
+        let merging = Merging { coarse, limits: first.limits, retries, capped: true };
+        next = merging.next(prt, single);
+        if state_hash(&merging.coarse.prt, opts) == saved {
+            return Merging { capped: next.is_some(), ..merging };
+        }
+    }
+    first
 }
 
 /// `opts` for a run of `prt` that flows the input as it is (the shards of a plan): the level
@@ -198,8 +287,14 @@ fn check(prt: &PortalFile) -> Result<(), VisError> {
     Ok(())
 }
 
-/// The phases of a run, on the threads `opts.threads` says (see `parallel`).
-fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> Result<VisResult, VisError> {
+/// The phases of a run, on the threads `opts.threads` says (see `parallel`); `None` when the
+/// flow made more than `cap` chains ([`flow_all`]).
+fn run_phases(
+    prt: &PortalFile,
+    opts: &VisOptions,
+    progress: &dyn Progress,
+    cap: Option<u64>,
+) -> Result<Option<VisResult>, VisError> {
     let t0 = Instant::now();
     let g = graph::Graph::new(prt);
     let n = g.portals.len();
@@ -236,7 +331,10 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
         let t1 = Instant::now();
         let portal_vis = match &opts.merge {
             Some(spec) => shard::merge_rows(prt, &g, might, words, opts, spec, &mut stats)?,
-            None => flow_all(prt, &g, might, words, opts, progress, &mut stats)?,
+            None => match flow_all(prt, &g, might, words, opts, progress, &mut stats, cap)? {
+                Some(rows) => rows,
+                None => return Ok(None),
+            },
         };
         stats.flow_seconds = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
@@ -246,7 +344,7 @@ fn run_phases(prt: &PortalFile, opts: &VisOptions, progress: &dyn Progress) -> R
     };
     result.fill_stats(&mut stats);
     result.stats = stats;
-    Ok(result)
+    Ok(Some(result))
 }
 
 #[cfg(test)]

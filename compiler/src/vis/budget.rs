@@ -204,6 +204,22 @@ pub(super) fn limit_work(counts: Counts, opts: &VisOptions) -> u64 {
     u64::try_from(u128::from(work(counts, opts)) + surcharge).unwrap_or(u64::MAX)
 }
 
+/// How many times the chains `work_estimate` counts on (one per one-way portal and cluster) a flow on
+/// merged clusters may make before `run` merges further. Flows that fit the
+/// estimate made 0.03–0.93 of those chains (the heavy open maps unmerged 0.8–0.93; merged by
+/// `--coarsen --max-work`, 0.03–0.92). Some partial merges made 5–140 times as many: a merged
+/// cluster is not convex, so a chain may leave it through any portal its antipenumbra reaches,
+/// and a map of a few large merged clusters among many small ones gave flows 4–17 times as long
+/// as the unmerged map's (generated arena_32 and city_28, 2026-11-29, `docs/benchmarks.md`).
+pub const CHAIN_CAP_FACTOR: u64 = 2;
+
+/// The chains a flow of `prt` (merged clusters) may make before `run` merges further:
+/// [`CHAIN_CAP_FACTOR`] times one chain per one-way portal and cluster.
+pub(super) fn chain_cap(prt: &PortalFile) -> u64 {
+    let counts = Counts::of(prt);
+    (2 * counts.portals as u64).saturating_mul(u64::from(counts.clusters)).saturating_mul(CHAIN_CAP_FACTOR)
+}
+
 /// The work limit of `opts` and where it comes from.
 pub(super) fn work_limit(opts: &VisOptions) -> Option<(u64, &'static str)> {
     match (opts.max_work, opts.coarsen) {

@@ -125,6 +125,7 @@ pub(crate) fn fit(prt: &PortalFile, opts: &VisOptions, limits: Limits) -> Option
                 fine_pairs_lower: fine_pairs_lower(prt),
                 pairs_within_groups: 0,
                 largest_groups: Vec::new(),
+                retries: 0,
             };
             let stats = looseness(prt, &new_id, groups, stats);
             return Some(Coarse { prt: coarse, new_id, stats });

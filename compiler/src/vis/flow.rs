@@ -175,6 +175,9 @@ pub struct Flow {
     level: u8,
     /// Recursive calls made (portal chains visited).
     pub chains: u64,
+    /// Past this many chains the flow unwinds at once: its run is being given up (a merge whose
+    /// flow runs over its cap, see `vis::run`), so its row is no result.
+    pub chain_limit: u64,
     /// Look for certified sight lines (for seeds).
     seeding: bool,
     /// The one-way portals a certified line crosses and its clusters (see [`Flow::certify`]),
@@ -207,6 +210,7 @@ impl Flow {
             words,
             level,
             chains: 0,
+            chain_limit: u64::MAX,
             seeding,
             line: Vec::new(),
             on: Vec::new(),
@@ -312,6 +316,9 @@ impl Flow {
 
     fn recurse(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, d: usize, head: &Head) {
         self.chains += 1;
+        if self.chains > self.chain_limit {
+            return;
+        }
         let words = self.words;
         let leaf = self.frames[d].leaf as usize;
         // Without a target worth testing (one still possibly visible that leads to an unseen
@@ -438,6 +445,9 @@ impl Flow {
                 }
                 let chains = self.chains;
                 self.recurse(g, test, seeds, d + 1, head);
+                if self.chains > self.chain_limit {
+                    return;
+                }
                 if self.chains - chains >= self.keep_chains {
                     let next = &self.frames[d + 1];
                     self.explored.keep(pi, &next.source, &next.pass, &next.might, next.lo, next.hi);

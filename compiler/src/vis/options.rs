@@ -52,6 +52,9 @@ pub struct VisOptions {
     /// Tests only: panic in the flow at this position of the processing order.
     #[cfg(test)]
     pub(crate) panic_at: Option<usize>,
+    /// Tests only: the chain cap of flows on merged clusters, instead of `budget::chain_cap`'s.
+    #[cfg(test)]
+    pub(crate) chain_cap: Option<u64>,
 }
 
 impl Default for VisOptions {
@@ -72,6 +75,8 @@ impl Default for VisOptions {
             merge: None,
             #[cfg(test)]
             panic_at: None,
+            #[cfg(test)]
+            chain_cap: None,
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The flow's batch scheduler: every portal flowed in deterministic batches, on the run's
 //! threads, with checkpoints at batch boundaries.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, PoisonError, RwLock};
 use std::time::{Duration, Instant};
 
@@ -31,7 +31,17 @@ pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u
     }
 }
 
-/// Flow every portal in deterministic batches; returns the final portal rows.
+/// The hash a state file of a run of `prt` with `opts` carries ([`input_hash`] with the run's
+/// batch size).
+pub(super) fn state_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
+    let n = 2 * prt.portals.len();
+    input_hash(prt, opts, opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(n, w)))
+}
+
+/// Flow every portal in deterministic batches; returns the final portal rows, or `None` when
+/// the flow made more than `cap` chains by a batch boundary before its end (the chains folded at
+/// each boundary are the same for any thread count, so so is where it stops).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn flow_all(
     prt: &PortalFile,
     g: &graph::Graph,
@@ -40,7 +50,8 @@ pub(super) fn flow_all(
     opts: &VisOptions,
     progress: &dyn Progress,
     stats: &mut VisStats,
-) -> Result<Vec<u64>, VisError> {
+    cap: Option<u64>,
+) -> Result<Option<Vec<u64>>, VisError> {
     let n = g.portals.len();
     let order = plan::processing_order(&might, words, n);
     // The flow narrows the `mightsee` rows in place.
@@ -80,6 +91,9 @@ pub(super) fn flow_all(
             None => state::State::new(want.input_hash, n, words, nc),
         });
     }
+    // A resumed run already over the cap was flowing uncapped (a run stops at the first boundary
+    // over it, before any checkpoint there): it goes on so.
+    let cap = cap.filter(|&cap| stats.chains <= cap);
     // The estimate, for the portals left.
     stats.flow_estimate_work =
         counts[done..].iter().map(|&m| estimate::chains(m, n, nc)).fold(0, |a, w| a.saturating_add(w));
@@ -96,13 +110,15 @@ pub(super) fn flow_all(
     let refine = estimate::Refine::new(counts.iter().map(|&m| estimate::progress_weight(m)), done, say);
     let flow_phase = phase(progress, "vis flow", n as u64);
     flow_phase.advance(done as u64);
-    let run = Run { g, order: &order, words, n, batch, opts, progress: &flow_phase, notes: progress };
-    let test = run.batches(Rows { test, seeds, quiet }, done, log, refine, stats)?;
+    let run = Run { g, order: &order, words, n, batch, opts, cap, progress: &flow_phase, notes: progress };
+    let Some(test) = run.batches(Rows { test, seeds, quiet }, done, log, refine, stats)? else {
+        return Ok(None);
+    };
     if let Some(path) = &opts.state {
         // The run is complete: the checkpoint has served its purpose.
         let _ = std::fs::remove_file(path);
     }
-    Ok(test)
+    Ok(Some(test))
 }
 
 /// What flows read and batch boundaries write.
@@ -124,6 +140,8 @@ struct Run<'a> {
     /// Portals per batch ([`flow_batch`]).
     batch: usize,
     opts: &'a VisOptions,
+    /// Stop once more chains than this are folded ([`flow_all`]).
+    cap: Option<u64>,
     progress: &'a Phase<'a>,
     /// Where the refined estimates are said.
     notes: &'a dyn Progress,
@@ -137,6 +155,10 @@ struct Cursor {
     finished: AtomicUsize,
     /// Positions before this one may start (the end of the open batch).
     ready: Lone<AtomicUsize>,
+    /// Chains each flow of the open batch may make before it unwinds ([`flow::Flow::chain_limit`]):
+    /// the run's cap less the chains folded before the batch. A flow past it takes the batch
+    /// over the cap, so the boundary gives the run up.
+    budget: AtomicU64,
     /// Set when the run stops early (interrupted or failed).
     halt: Lone<AtomicBool>,
     /// Where a worker that waited past [`SPIN_WAITS`] checks sleeps until the batch opens or the
@@ -237,6 +259,8 @@ struct Boundary<'s> {
     log: Option<state::State>,
     last_save: Instant,
     outcome: Option<VisError>,
+    /// The run stopped over its chain cap.
+    capped: bool,
     /// The flow's estimate, refined at each boundary.
     refine: estimate::Refine,
 }
@@ -247,7 +271,8 @@ impl Run<'_> {
     /// A worker runs on each of the run's threads, takes portals from a shared cursor and waits
     /// for the next batch by spinning briefly, then sleeping ([`Cursor::wait_for`]). A worker
     /// that panics records the error and halts the cursor, so the others stop waiting for a
-    /// batch that cannot close. Returns the final rows, or why the run stopped.
+    /// batch that cannot close. Returns the final rows, `None` over the chain cap, or why the run
+    /// stopped.
     fn batches(
         &self,
         rows: Rows,
@@ -255,7 +280,7 @@ impl Run<'_> {
         log: Option<state::State>,
         refine: estimate::Refine,
         stats: &mut VisStats,
-    ) -> Result<Vec<u64>, VisError> {
+    ) -> Result<Option<Vec<u64>>, VisError> {
         let test = RwLock::new(rows);
         let slots: Vec<Lone<Mutex<Slot>>> =
             (0..self.batch).map(|_| Lone(Mutex::new(Slot::default()))).collect();
@@ -263,12 +288,20 @@ impl Run<'_> {
             next: AtomicUsize::new(done),
             finished: AtomicUsize::new(0),
             ready: Lone(AtomicUsize::new((done + self.batch).min(self.n))),
+            budget: AtomicU64::new(self.budget(stats.chains)),
             halt: Lone(AtomicBool::new(false)),
             gate: Mutex::new(()),
             wake: Condvar::new(),
             sleepers: AtomicUsize::new(0),
         };
-        let boundary = Mutex::new(Boundary { stats, log, last_save: Instant::now(), outcome: None, refine });
+        let boundary = Mutex::new(Boundary {
+            stats,
+            log,
+            last_save: Instant::now(),
+            outcome: None,
+            capped: false,
+            refine,
+        });
         // One worker on each of the run's threads (this one and its helpers), or on this one.
         parallel::on_every_thread(self.opts.threads, || {
             let work = || self.worker(done, &test, &slots, &cursor, &boundary);
@@ -283,7 +316,8 @@ impl Run<'_> {
         let boundary = boundary.into_inner().unwrap_or_else(PoisonError::into_inner);
         match boundary.outcome {
             Some(e) => Err(e),
-            None => Ok(test.into_inner().unwrap_or_else(PoisonError::into_inner).test),
+            None if boundary.capped => Ok(None),
+            None => Ok(Some(test.into_inner().unwrap_or_else(PoisonError::into_inner).test)),
         }
     }
 
@@ -317,6 +351,7 @@ impl Run<'_> {
             let mut out = std::mem::take(&mut spare);
             out.resize(self.words, 0);
             f.chains = 0;
+            f.chain_limit = cursor.budget.load(Ordering::Acquire);
             #[cfg(test)]
             if self.opts.panic_at == Some(i) {
                 panic!("injected panic at flow position {i}");
@@ -340,6 +375,11 @@ impl Run<'_> {
                 self.close_batch(batch_start, batch_end, test, slots, cursor, boundary);
             }
         }
+    }
+
+    /// What a flow may make ([`Cursor::budget`]) once `chains` are folded.
+    fn budget(&self, chains: u64) -> u64 {
+        self.cap.map_or(u64::MAX, |cap| cap.saturating_sub(chains))
     }
 
     /// Fold a finished batch into `test`, checkpoint and check for a stop, then open the next.
@@ -380,6 +420,11 @@ impl Run<'_> {
             self.notes.note(&line);
         }
         b.stats.flow_refined_seconds = b.refine.at_tenth;
+        if done < n && self.cap.is_some_and(|cap| b.stats.chains > cap) {
+            b.capped = true;
+            cursor.stop();
+            return;
+        }
         let cancelled = self.opts.cancel.is_cancelled();
         let stop = (self.opts.stop_after.is_some_and(|s| done >= s) || cancelled) && done < n;
         if let (Some(path), Some(log)) = (&self.opts.state, &b.log)
@@ -399,6 +444,7 @@ impl Run<'_> {
             return;
         }
         cursor.finished.store(0, Ordering::Release);
+        cursor.budget.store(self.budget(b.stats.chains), Ordering::Release);
         cursor.open((done + self.batch).min(n));
     }
 }

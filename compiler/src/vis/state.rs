@@ -332,6 +332,14 @@ pub fn load(path: &Path, want: &Expect) -> Result<Option<State>, VisError> {
     }
 }
 
+/// The input hash of the state in the file at `path`, when it holds a readable one: which of a
+/// `--coarsen` run's merges it belongs to (see `run`). `None` for a missing or unreadable file,
+/// which [`load`] then reports.
+pub fn input_hash_of(path: &Path) -> Option<u64> {
+    let bytes = sightline_job::input::read_input(path).ok()?;
+    decode(&bytes).ok().map(|state| state.input_hash)
+}
+
 /// The error for a state whose content cannot come from a run.
 pub fn inconsistent(path: &Path, problem: &str) -> VisError {
     VisError::State(format!(

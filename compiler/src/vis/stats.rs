@@ -183,6 +183,10 @@ pub struct CoarsenStats {
     /// The merged groups with the most leaves (at most [`LARGEST_GROUPS`](super::coarsen::LARGEST_GROUPS), most leaves first): where the PVS
     /// got looser.
     pub largest_groups: Vec<MergedGroup>,
+    /// Merges given up before this one: their flows made more chains than
+    /// [`CHAIN_CAP_FACTOR`](super::CHAIN_CAP_FACTOR) times the estimate allows, so
+    /// clusters were merged further, each time under half the previous merge's work estimate.
+    pub retries: u32,
 }
 
 /// A group of input clusters merged into one ([`CoarsenStats::largest_groups`]).

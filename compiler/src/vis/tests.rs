@@ -709,6 +709,73 @@ fn coarsened_generated_rooms_keep_every_pair_and_report_their_looseness() {
     }
 }
 
+/// A flow on merged clusters that makes more chains than its cap is given up and the clusters
+/// merged further: the result keeps every pair of the unmerged PVS, is the same for one and two
+/// threads, and a run interrupted on the last merge resumes there and equals the uninterrupted
+/// one. With the real cap the generated rooms flow their first merge to its end.
+#[test]
+fn a_merge_whose_flow_runs_over_its_chain_cap_is_merged_further() {
+    use sightline_tests::mapgen::{MapGenParams, generate};
+    let text = generate(&MapGenParams { rooms_x: 4, rooms_y: 4, storeys: 2, seed: 7 });
+    let map = sightline_formats::map::parse(&text, "rooms.map").expect("generated maps parse");
+    let source = crate::Source::Map { map, file: "rooms.map".to_string() };
+    let prt = crate::compile(&source, &crate::CompileOptions::default(), &none()).expect("compiles").prt;
+    let opts = VisOptions { threads: 1, ..VisOptions::default() };
+    let fine = run(&prt, &opts, &none()).expect("vis");
+    let merged = VisOptions { max_work: Some(work_estimate(&prt, &opts) / 4), coarsen: true, ..opts };
+    let first = run(&prt, &merged, &none()).expect("coarsened");
+    let first_stats = first.stats.coarsened.clone().expect("coarsened");
+    assert_eq!(first_stats.retries, 0, "the real cap gave the first merge up: {first_stats:?}");
+    // Half the chains the first merge made: it is given up.
+    let capped = VisOptions { chain_cap: Some(first.stats.chains / 2), ..merged };
+    let further = run(&prt, &capped, &none()).expect("merged further");
+    let c = further.stats.coarsened.clone().expect("coarsened");
+    assert!(c.retries >= 1 && c.clusters_after < first_stats.clusters_after, "{c:?} after {first_stats:?}");
+    assert!(c.portals_after > 0, "merged into one cluster: {c:?}");
+    assert_eq!(missed_pairs(&fine, &further), 0, "the further merged PVS lost a pair");
+    let two = run(&prt, &VisOptions { threads: 2, ..capped.clone() }, &none()).expect("two threads");
+    assert_eq!((&two.rows, &two.stats.coarsened), (&further.rows, &further.stats.coarsened));
+    // Interrupted after every number of finished portals in turn (here always on a merge that is
+    // given up again): the resumed run restarts on the next merge and gives the same result.
+    let dir = temp_dir("merge_further");
+    let path = dir.join("rooms.vis");
+    let stop = |k| VisOptions { state: Some(path.clone()), stop_after: Some(k), ..capped.clone() };
+    // (The memory estimate counts the checkpoint's log, so only the merge itself is compared.)
+    let merge = |c: &Option<coarsen::CoarsenStats>| c.as_ref().map(|c| (c.clusters_after, c.retries, c.work));
+    for k in 1..2 * prt.portals.len() {
+        match run(&prt, &stop(k), &none()) {
+            Err(VisError::Interrupted { .. }) => {}
+            Ok(r) => {
+                assert_eq!(r.rows, further.rows, "stop after {k}: not reached, yet another PVS");
+                continue;
+            }
+            Err(e) => panic!("stop after {k}: {e}"),
+        }
+        let resumed = run(&prt, &VisOptions { stop_after: None, ..stop(k) }, &none()).expect("resumed");
+        assert_eq!(merge(&resumed.stats.coarsened), merge(&further.stats.coarsened), "stop after {k}");
+        assert_eq!(resumed.rows, further.rows, "stop after {k}: another PVS");
+        assert!(!path.exists(), "stop after {k}: the checkpoint outlived the run");
+    }
+    // A checkpoint of the last merge (written by a run on that merge's portal file, which hashes
+    // alike) is resumed there.
+    let single = VisOptions { threads: 1, ..capped.clone() };
+    let limits = coarsen::Limits { memory: u64::MAX, work: capped.max_work.unwrap_or(u64::MAX) };
+    let mut last = coarsen::fit(&prt, &single, limits).expect("first merge");
+    for _ in 0..c.retries {
+        last = coarsen::fit(&prt, &single, coarsen::Limits { work: last.stats.work / 2, ..limits })
+            .expect("next");
+    }
+    assert_eq!(last.stats.clusters_after, c.clusters_after);
+    let plain =
+        VisOptions { state: Some(path.clone()), stop_after: Some(1), threads: 1, ..VisOptions::default() };
+    assert!(matches!(run(&last.prt, &plain, &none()), Err(VisError::Interrupted { .. })));
+    let resumed = run(&prt, &VisOptions { stop_after: None, ..stop(1) }, &none()).expect("resumed");
+    assert!(resumed.stats.resumed_portals > 0, "{:?}", resumed.stats);
+    assert_eq!(merge(&resumed.stats.coarsened), merge(&further.stats.coarsened));
+    assert_eq!(resumed.rows, further.rows, "resumed on the last merge: another PVS");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_clusters_portals_come_largest_first_ties_in_file_order() {
     // Leaf 0 opens into leaves 1..=4 through squares of sides 8, 32, 16 and 32 side by side.

@@ -1552,6 +1552,7 @@ fn json_carries_the_flow_estimate_and_max_time_coarsens_with_a_looseness_report(
     let fine_pairs = v["visible_pairs"].as_u64().expect("visible_pairs");
     assert!(0 < lower && lower <= fine_pairs && fine_pairs < pairs, "{lower} {fine_pairs} {pairs}");
     assert!(c["pairs_within_groups"].as_u64().expect("pairs_within_groups") <= pairs, "{c}");
+    assert!(c["retries"].as_u64().is_some_and(|r| r <= 16), "{c}");
     let groups = c["largest_groups"].as_array().expect("largest_groups");
     assert!(!groups.is_empty() && groups.len() <= 5, "{c}");
     let leaves: Vec<u64> = groups.iter().map(|g| g["leaves"].as_u64().expect("leaves")).collect();
