@@ -31,11 +31,16 @@ pub(super) fn input_hash(prt: &PortalFile, opts: &VisOptions, batch: usize) -> u
     }
 }
 
+/// Portals per batch of a run of `prt` with `opts` over `one_way` one-way portals (its graph's):
+/// [`flow_batch`], or with [`VisOptions::waves`] a wave ([`plan::wave_size`]).
+fn batch_size(prt: &PortalFile, opts: &VisOptions, one_way: impl FnOnce() -> usize) -> usize {
+    opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(one_way(), w))
+}
+
 /// The hash a state file of a run of `prt` with `opts` carries ([`input_hash`] with the run's
 /// batch size).
 pub(super) fn state_hash(prt: &PortalFile, opts: &VisOptions) -> u64 {
-    let n = 2 * prt.portals.len();
-    input_hash(prt, opts, opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(n, w)))
+    input_hash(prt, opts, batch_size(prt, opts, || graph::Graph::new(prt).portals.len()))
 }
 
 /// Flow every portal in deterministic batches; returns the final portal rows, or `None` when
@@ -63,7 +68,7 @@ pub(super) fn flow_all(
     let nc = g.num_clusters();
     let mut seeds = seeds::Seeds::new(n, nc);
     // A shard plan's waves are batches too ([`plan::wave_size`]).
-    let batch = opts.waves.map_or_else(|| flow_batch(prt, opts), |w| plan::wave_size(n, w));
+    let batch = batch_size(prt, opts, || n);
     let mut done = 0usize;
     let mut quiet = 0usize;
     // With a state file, the log of every batch boundary: loaded and replayed when the file
