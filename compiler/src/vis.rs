@@ -237,7 +237,7 @@ fn resumed_merge(prt: &PortalFile, single: &VisOptions, opts: &VisOptions, first
     if state_hash(&first.coarse.prt, opts) == saved {
         return Merging { capped: next.is_some(), ..first };
     }
-    for retries in 1..MAX_RETRIES {
+    for retries in 1..=MAX_RETRIES {
         let Some(coarse) = next else { break };
         let merging = Merging { coarse, limits: first.limits, retries, capped: true };
         next = merging.next(prt, single);
