@@ -183,9 +183,14 @@ pub(super) fn work(counts: Counts, opts: &VisOptions) -> u64 {
     let flow = if opts.fast {
         0
     } else {
-        one_way * u128::from(counts.clusters) * CHAIN_WORK + one_way * one_way * PORTAL_SCAN_WORK
+        counted_chains(counts) * CHAIN_WORK + one_way * one_way * PORTAL_SCAN_WORK
     };
     u64::try_from(base + flow).unwrap_or(u64::MAX)
+}
+
+/// The chains [`work`] counts on: one per one-way portal and cluster.
+fn counted_chains(counts: Counts) -> u128 {
+    2 * counts.portals as u128 * u128::from(counts.clusters)
 }
 
 /// What one base-vis test costs against one flow test, in the work limits only ([`limit_work`]):
@@ -204,9 +209,9 @@ pub(super) fn limit_work(counts: Counts, opts: &VisOptions) -> u64 {
     u64::try_from(u128::from(work(counts, opts)) + surcharge).unwrap_or(u64::MAX)
 }
 
-/// How many times the chains `work_estimate` counts on (one per one-way portal and cluster) a flow on
-/// merged clusters may make before `run` merges further. Flows that fit the
-/// estimate made 0.03–0.93 of those chains (the heavy open maps unmerged 0.8–0.93; merged by
+/// How many times the chains `work_estimate` counts on (one per one-way portal and cluster) a
+/// flow on merged clusters may make before `run` merges further. Flows that fit the estimate made
+/// 0.03–0.93 of those chains (the heavy open maps unmerged 0.8–0.93; merged by
 /// `--coarsen --max-work`, 0.03–0.92). Some partial merges made 5–140 times as many: a merged
 /// cluster is not convex, so a chain may leave it through any portal its antipenumbra reaches,
 /// and a map of a few large merged clusters among many small ones gave flows 4–17 times as long
@@ -214,10 +219,10 @@ pub(super) fn limit_work(counts: Counts, opts: &VisOptions) -> u64 {
 pub const CHAIN_CAP_FACTOR: u64 = 2;
 
 /// The chains a flow of `prt` (merged clusters) may make before `run` merges further:
-/// [`CHAIN_CAP_FACTOR`] times one chain per one-way portal and cluster.
+/// [`CHAIN_CAP_FACTOR`] times those [`work`] counts on.
 pub(super) fn chain_cap(prt: &PortalFile) -> u64 {
-    let counts = Counts::of(prt);
-    (2 * counts.portals as u64).saturating_mul(u64::from(counts.clusters)).saturating_mul(CHAIN_CAP_FACTOR)
+    let chains = counted_chains(Counts::of(prt)) * u128::from(CHAIN_CAP_FACTOR);
+    u64::try_from(chains).unwrap_or(u64::MAX)
 }
 
 /// The work limit of `opts` and where it comes from.

@@ -35,9 +35,9 @@ use super::poly::{Poly, TOUCH_EPSILON};
 /// boxes, counted by capacity), in rows of `might`: the store of a map with `n` one-way portals
 /// holds up to this many times `n / 8` bytes, at most [`EXPLORED_BYTES`]. On the generated
 /// `terrain_32` (our own portals, 63 words a row) a flow would use 4.6 MB at most; with 8,192 rows
-/// (4.1 MB) it visits 2.90 M chains, and 4.05 M without the store. (Counting use rather than
-/// capacity, which bounds the memory less tightly: 4,096 rows 2.95 M, 8,192 rows 2.81 M, 16 MiB
-/// 2.80 M.)
+/// (4.1 MB) it visited 2.90 M chains, and 4.05 M without the store (session 21, when a flow could
+/// keep up to the whole bound; counting use rather than capacity, which bounds the memory less
+/// tightly: 4,096 rows 2.95 M, 8,192 rows 2.81 M, 16 MiB 2.80 M).
 pub const EXPLORED_ROWS: usize = 8192;
 
 /// The most bytes a thread keeps for explored frames, whatever the map.
@@ -115,8 +115,9 @@ impl Explored {
     }
 
     /// The bytes kept for `portals` one-way portals at most: the lists' headers, one bit and
-    /// two `holding` slots each (a vector that doubles), and the bound (a flow starts with at most a third of it
-    /// allocated, [`Explored::clear`], and keeps at most two thirds, [`Explored::keep`]).
+    /// two `holding` slots each (a vector that doubles), and the bound (a flow starts with at
+    /// most a third of it allocated, [`Explored::clear`], and keeps at most two thirds,
+    /// [`Explored::keep`]).
     pub fn bytes(portals: usize) -> u128 {
         ((std::mem::size_of::<Vec<Entry>>() + 9) * portals + Self::bound(portals)) as u128
     }
