@@ -794,3 +794,50 @@ fn a_clusters_portals_come_largest_first_ties_in_file_order() {
     // Each of leaves 1..=4 has one portal out, back into leaf 0.
     assert!((1..5).all(|c| g.cluster_portals[c].len() == 1));
 }
+
+/// Clusters a line leaves and comes back into: in blocks of 6 × 4 cells of a grid, columns 0 and
+/// 3, 1 and 4, 2 and 5 are each one cluster, so a line across the columns passes through a
+/// merged cluster again and again. Their flows skip the loops, and the PVS still holds every pair
+/// of cells that a line walked through the unmerged cells joins.
+#[test]
+fn a_flow_through_clusters_a_line_leaves_and_reenters_keeps_every_walked_line() {
+    let (nx, ny) = (36u32, 24u32);
+    let class = |c: u32| {
+        let (i, j) = (c % nx, c / nx);
+        3 * ((i / 6) + (nx / 6) * (j / 4)) + i % 3
+    };
+    let new_id: Vec<u32> = (0..nx * ny).map(class).collect();
+    let groups = 3 * (nx / 6) * (ny / 4);
+    let opts = VisOptions { threads: 1, ..VisOptions::default() };
+    let prt = grid(nx, ny, 11);
+    let coarse = run(&coarsen::build(&prt, &new_id, groups), &opts, &none()).expect("vis");
+    let pvs = coarsen::expand(coarse, &prt, &new_id);
+    // Lines from a random point of a random portal, mostly across the columns, walked through
+    // the unmerged cells.
+    let g = graph::Graph::new(&prt);
+    let mut rng = sightline_job::rng::SplitMix64::new(5);
+    let (mut crossed, mut looping) = (Vec::new(), 0);
+    for _ in 0..20_000 {
+        let p = &g.portals[rng.below(g.portals.len())];
+        let pts = g.winding(p);
+        let weights: Vec<f64> = pts.iter().map(|_| rng.range_f64(0.05, 1.0)).collect();
+        let b = pts.iter().zip(&weights).map(|(&q, &w)| q * w).sum::<DVec3>() / weights.iter().sum::<f64>();
+        let dir = DVec3::new(rng.range_f64(-1.0, 1.0), rng.range_f64(-0.4, 0.4), rng.range_f64(-0.2, 0.2));
+        let dir = if dir.dot(p.plane.normal) > 0.0 { dir } else { -dir };
+        crossed.clear();
+        certify::walk(&g, b - dir, b, p.leaf, MAX_FLOW_DEPTH, &mut crossed);
+        let cells: Vec<u32> = [p.owner, p.leaf]
+            .into_iter()
+            .chain(crossed.iter().map(|&q| g.portals[q as usize].leaf))
+            .collect();
+        let mut classes: Vec<u32> = cells.iter().map(|&c| class(c)).collect();
+        classes.dedup();
+        looping += usize::from((1..classes.len()).any(|i| classes[..i].contains(&classes[i])));
+        for &x in &cells {
+            for &y in &cells {
+                assert!(pvs.cluster_sees(x as usize, y as usize), "cells {x} and {y} on one line: {cells:?}");
+            }
+        }
+    }
+    assert!(looping > 200, "only {looping} lines came back into a merged cluster");
+}
