@@ -24,7 +24,9 @@
 //! This is the merge `--coarsen` makes (see `vis::coarsen`), chosen by the mapper instead of by a
 //! grid: a sight line crosses the portals that remain, consecutive ones sharing a merged cluster,
 //! and every constraint vis puts on that shorter chain it put on the longer one before; so a
-//! merged cluster sees what any of its leaves saw, and is seen by whatever saw any of them.
+//! merged cluster sees whatever a line from any of its leaves reaches, and is seen along every
+//! line that reaches any of them (pairs of the unmerged PVS that no line joins may go, see
+//! `vis::coarsen`).
 
 use glam::DVec3;
 use sightline_formats::Contents;
