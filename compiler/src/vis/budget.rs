@@ -214,10 +214,11 @@ pub(super) fn limit_work(counts: Counts, opts: &VisOptions) -> u64 {
 /// 0.03–0.93 of those chains (the heavy open maps unmerged 0.8–0.93; merged by
 /// `--coarsen --max-work`, 0.03–0.92). Some partial merges made 5–140 times as many, and flows
 /// 4–17 times as long as the unmerged map's (generated arena_32 and city_28, 2026-11-29,
-/// `docs/benchmarks.md`): a merged cluster is not convex, and their chains followed every order of
-/// the loops a line may make out of a merged cluster and back into it. Flows skip such loops now
-/// (the `vis::flow` module docs), and no merge of the heavy set under 1/2 to 1/64 of its estimate comes
-/// near the cap since; it stays as the bound of a flow the estimate does not foresee.
+/// `docs/benchmarks.md`): a merged cluster is not convex, and their chains followed every order
+/// of the loops a line may make out of a merged cluster and back into it. Flows skip such loops
+/// now (the `vis::flow` module docs), and no merge of the heavy set under 1/2 to 1/64 of its
+/// estimate comes near the cap since; it stays as the bound of a flow the estimate does not
+/// foresee.
 pub const CHAIN_CAP_FACTOR: u64 = 2;
 
 /// The chains a flow of `prt` (merged clusters) may make before `run` merges further:
