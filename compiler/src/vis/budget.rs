@@ -114,7 +114,7 @@ pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
         + 2 * (24 + 32) * points
         + nc * 2 * 24
         + base::OUT_BYTES_PER_PORTAL * one_way
-        + 4 * (nc + 1);
+        + 2 * 4 * (nc + 1);
     // `mightsee` and, with the flow, the rows it narrows.
     let mut matrices = one_way * row;
     if !opts.fast {
