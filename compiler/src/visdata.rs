@@ -324,10 +324,12 @@ pub struct Rows {
 }
 
 impl Rows {
-    /// Compress the rows of `result` (leaves of a cluster share one row).
+    /// Compress the rows of `result` (leaves of a cluster share one row, and clusters with the
+    /// same cluster row, as those `--coarsen` merged, share its leaf row, built once).
     pub fn new(result: &VisResult) -> Self {
         let mut data = Vec::new();
         let mut seen: HashMap<Vec<u8>, u32> = HashMap::new();
+        let mut of_row: HashMap<&[u64], u32> = HashMap::new();
         let mut cluster_offset: Vec<Option<u32>> = vec![None; result.num_clusters()];
         let mut leaf_offsets = Vec::with_capacity(result.num_leaves());
         let mut row = Vec::new();
@@ -337,13 +339,15 @@ impl Rows {
             let ofs = match *slot {
                 Some(o) => o,
                 None => {
-                    result.leaf_row_bytes(leaf, &mut row);
-                    packed.clear();
-                    rle::encode_row(&row, &mut packed);
-                    let o = *seen.entry(packed.clone()).or_insert_with(|| {
-                        let o = data.len() as u32;
-                        data.extend_from_slice(&packed);
-                        o
+                    let o = *of_row.entry(result.cluster_row(c as usize)).or_insert_with(|| {
+                        result.leaf_row_bytes(leaf, &mut row);
+                        packed.clear();
+                        rle::encode_row(&row, &mut packed);
+                        *seen.entry(packed.clone()).or_insert_with(|| {
+                            let o = data.len() as u32;
+                            data.extend_from_slice(&packed);
+                            o
+                        })
                     });
                     *slot = Some(o);
                     o
