@@ -109,19 +109,23 @@ impl Out {
             let first = out.portal.len();
             out.start.push(first as u32);
             out.group_start.push(out.groups.len() as u32);
-            order.clear();
-            order.extend_from_slice(list);
-            if list.len() > GROUP_ABOVE {
+            let large = list.len() > GROUP_ABOVE;
+            let listed: &[u32] = if large {
+                order.clear();
+                order.extend_from_slice(list);
                 run_order(g, &mut order);
-            }
-            for &t in &order {
+                &order
+            } else {
+                list
+            };
+            for &t in listed {
                 let p = &g.portals[t as usize];
                 let (nrm, c) = (p.plane.normal, p.center);
                 out.portal.push(t);
                 out.leaf.push(p.leaf);
                 out.plane_sphere.push([nrm.x, nrm.y, nrm.z, p.plane.dist, c.x, c.y, c.z, p.radius]);
             }
-            if list.len() > GROUP_ABOVE {
+            if large {
                 for run in (first..out.portal.len()).step_by(GROUP) {
                     let end = (run + GROUP).min(out.portal.len());
                     out.groups.push(Group::of(&out.plane_sphere[run..end], run, end));
@@ -198,7 +202,8 @@ fn run_order(g: &Graph, list: &mut [u32]) {
     let scale = 1023.0 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
     let key = |t: u32| {
         let q = ((centre(t) - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(1023.0));
-        let spread = |v: f64| {
+        // Bits of a 10-bit coordinate spread three apart, for the Z-order key.
+        let interleave = |v: f64| {
             let mut x = v as u64;
             let mut out = 0u64;
             for b in 0..10 {
@@ -213,7 +218,7 @@ fn run_order(g: &Graph, list: &mut [u32]) {
         let bin = |c: f64| ((c + 1.0) * 1.5).clamp(0.0, 2.0) as u64;
         let direction = (2 * a as u64 + u64::from(n[a] < 0.0)) * 9 + bin(u) * 3 + bin(v);
         let along = if n[a] < 0.0 { 1023.0 - q[a] } else { q[a] };
-        (direction, (along * 1024.0) as u64, spread(q.x) | spread(q.y) << 1 | spread(q.z) << 2)
+        (direction, (along * 1024.0) as u64, interleave(q.x) | interleave(q.y) << 1 | interleave(q.z) << 2)
     };
     list.sort_by_cached_key(|&t| (key(t), t));
 }
