@@ -98,10 +98,12 @@ use error::panic_error;
 use rows::{cluster_rows, rows_threads, symmetric_average, symmetric_result};
 use schedule::{flow_all, state_hash};
 
-/// Compute the PVS of a portal file. `progress` gets the phases `vis base` and `vis flow`, a step
-/// per finished portal (from worker threads), a note when clusters are merged to fit the limits,
-/// the flow's estimated time when it is long ([`estimate`], refined at each tenth of its
-/// progress) and a warning, once done, that the merged PVS is looser (and by how much);
+/// Compute the PVS of a portal file. `progress` gets the phases `vis base` (a step per portal)
+/// and `vis flow` (as many steps as one-way portals, each finished flow bringing its share by
+/// expected cost, so the phase's time left is the refined estimate: [`estimate::progress_steps`]),
+/// from worker threads, a note when clusters are merged to fit the limits, the flow's estimated
+/// time when it is long ([`estimate`]) and a warning, once done, that the merged PVS is looser
+/// (and by how much);
 /// [`VisOptions::cancel`] stops the run at its next batch boundary.
 ///
 /// A flow on merged clusters that makes more chains than [`CHAIN_CAP_FACTOR`] times its work

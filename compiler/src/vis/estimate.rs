@@ -1,5 +1,7 @@
 //! How long the flow will take: predicted once base vis is done ([`flow_seconds`]), and refined
-//! at batch boundaries as portals finish ([`Refine`]). Estimates go to progress notes and
+//! as portals finish: the flow's progress phase counts each portal's steps by its expected cost
+//! ([`progress_steps`]), so the time left a progress bar or line shows is the refined estimate,
+//! and [`Refine`] records it at a tenth. Estimates go to progress notes, the progress phase and
 //! [`VisStats`](super::VisStats) only; nothing here changes the PVS.
 //!
 //! # The model
@@ -18,12 +20,10 @@
 //! the cap still counts 18 times the chains made, so the first estimate is about 3× short there.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
 //! How far off the first estimate is, and why no richer model or early sample did better (a
-//! flow's chains depend on how far earlier flows narrowed its row): `docs/benchmarks.md`,
-//! 2026-11-29, sessions 21 and 22.
+//! flow's chains depend on how far earlier flows narrowed its row, down to the heaviest flows
+//! just before it): `docs/benchmarks.md`, sessions 21, 22 and 25.
 
 use std::time::Instant;
-
-use sightline_job::progress::format_seconds;
 
 /// Chains per portal per `m^2.2 / n^0.6` (see [`chains`]): fitted over the shared maps and the
 /// heavy set whose flows visited 50,000 chains or more (28 maps, 2 threads, 2026-11-29), on which
@@ -54,73 +54,95 @@ pub fn flow_seconds(work: u64, base_seconds: f64, base_tests: u64) -> f64 {
     CHAIN_PER_BASE_TEST * base_seconds / base_tests as f64 * work as f64
 }
 
-/// A portal's share of the flow's progress, for [`Refine`]: `1 + mightsee`. Within one map chains
-/// grow with about `m` (fitted slopes 0.4–1.2 on the same maps), more slowly than across maps:
-/// weighed by their predicted [`chains`], the cheap first tenth made the estimate refined there
-/// 1.4–5× pessimistic; by `m`, 0.4–2.4 of the truth.
+/// A portal's share of the flow's progress, for [`Refine`]: `(1 + mightsee)^`[`PROGRESS_EXPONENT`]
+/// in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`.
 pub fn progress_weight(mightsee: u64) -> u64 {
-    mightsee.saturating_add(1)
+    // `as` saturates: a huge weight stays finite.
+    ((mightsee as f64 + 1.0).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
 }
 
-/// First estimates at or above this many seconds are said (a progress note), with a refined one
-/// at every further tenth of the flow's progress ([`progress_weight`]).
+/// How a portal's progress weight grows with its `mightsee` ([`progress_weight`]). Within one map
+/// a flow's time grows more slowly with `m` than across maps. Per-flow times of 36 maps (the
+/// shared ones and the heavy set, 2026-11-29) replayed through [`Refine`] gave, as the worst
+/// ratio either way between the real flow time and the estimate refined at 10 % of the elapsed
+/// time, 3.75 with weights `1 + m`, 2.16 with this exponent and 4.5 with one step per portal;
+/// at the first tenth of the progress 2.72 and 2.70; at 20 % of the elapsed time 3.00 and 1.97.
+pub const PROGRESS_EXPONENT: f64 = 0.75;
+
+/// Steps per unit of [`progress_weight`], so portals of small `mightsee` keep their differences.
+pub const PROGRESS_UNIT: f64 = 256.0;
+
+/// First estimates at or above this many seconds are said (a progress note). The flow's
+/// progress phase counts [`progress_steps`], so the time left it shows is the refined estimate.
 pub const SAY_SECONDS: f64 = 10.0;
 
-/// The refined estimate of a flow in progress: elapsed time scaled by the progress left over the
-/// progress done ([`progress_weight`]), so the cheap portals processed first do not make the rest
-/// look short.
+/// The steps of the flow's progress phase per position of the processing order, for portals
+/// whose `mightsee` counts are `counts` (in that order): their [`progress_weight`]s scaled so
+/// that the steps add up to the portal count, each position taking the steps its weight brings
+/// the running total to. A phase's time left (the elapsed time scaled by the steps left over
+/// the steps done) is then the refined estimate: the cheap portals processed first do not make
+/// the rest look short, as a step per portal did.
+pub fn progress_steps(counts: &[u64]) -> Vec<u64> {
+    let n = counts.len() as u128;
+    let total: u128 = counts.iter().map(|&m| u128::from(progress_weight(m))).sum::<u128>().max(1);
+    let (mut weight, mut steps) = (0u128, 0u64);
+    counts
+        .iter()
+        .map(|&m| {
+            weight += u128::from(progress_weight(m));
+            // At most `n`, which is a `usize`.
+            let upto = (n * weight / total) as u64;
+            let step = upto - steps;
+            steps = upto;
+            step
+        })
+        .collect()
+}
+
+/// The estimate of a flow in progress made once a tenth of its [`progress_steps`] left at its
+/// start is done: the elapsed time scaled by those steps over the steps done
+/// (`vis.flow_refined_seconds`).
 #[derive(Debug)]
 pub struct Refine {
-    /// Per position of the processing order, the progress weight of the positions before it
-    /// (`n + 1` entries).
+    /// Per position of the processing order, the steps of the positions before it (`n + 1`
+    /// entries).
     done_before: Vec<u64>,
     /// Position the run started from (after a resume).
     start_pos: usize,
     start: Instant,
-    /// Tenths of the progress already said.
-    said: u64,
-    /// Say anything at all (the first estimate was long).
-    say: bool,
-    /// The estimate (elapsed plus left) made at the first boundary past a tenth of the progress.
+    /// The estimate (elapsed plus left) made at the first boundary past a tenth of the steps.
     pub at_tenth: Option<f64>,
 }
 
 impl Refine {
-    /// For the processing order's `weights` (one per position), starting at `start_pos`; `say`
-    /// when the first estimate is worth saying.
-    pub fn new(weights: impl IntoIterator<Item = u64>, start_pos: usize, say: bool) -> Self {
+    /// For the processing order's `steps` ([`progress_steps`]), starting at `start_pos`.
+    pub fn new(steps: &[u64], start_pos: usize) -> Self {
         let mut done_before = vec![0u64];
-        for w in weights {
-            done_before.push(done_before.last().copied().unwrap_or(0).saturating_add(w));
+        for &s in steps {
+            done_before.push(done_before.last().copied().unwrap_or(0).saturating_add(s));
         }
-        Self { done_before, start_pos, start: Instant::now(), said: 0, say, at_tenth: None }
+        Self { done_before, start_pos, start: Instant::now(), at_tenth: None }
     }
 
-    /// The positions before `done` are finished: the line to say, if a new tenth of the
-    /// progress was reached.
-    pub fn boundary(&mut self, done: usize) -> Option<String> {
-        let at = |p: usize| self.done_before.get(p).copied().unwrap_or(0);
-        let total = at(self.done_before.len() - 1).saturating_sub(at(self.start_pos));
-        let finished = at(done).saturating_sub(at(self.start_pos));
-        if total == 0 || finished == 0 || finished >= total {
-            return None;
+    /// The steps before position `p`.
+    pub fn steps_before(&self, p: usize) -> u64 {
+        self.done_before.get(p).copied().unwrap_or(0)
+    }
+
+    /// The positions before `done` are finished: the first time that is a tenth of the steps
+    /// left at the start, [`Refine::at_tenth`] is set.
+    pub fn boundary(&mut self, done: usize) {
+        let total =
+            self.steps_before(self.done_before.len() - 1).saturating_sub(self.steps_before(self.start_pos));
+        let finished = self.steps_before(done).saturating_sub(self.steps_before(self.start_pos));
+        if self.at_tenth.is_some()
+            || finished == 0
+            || finished >= total
+            || finished.saturating_mul(10) < total
+        {
+            return;
         }
-        let tenth = finished.saturating_mul(10) / total;
-        if tenth <= self.said {
-            return None;
-        }
-        self.said = tenth;
-        let elapsed = self.start.elapsed().as_secs_f64();
-        let left = elapsed * (total - finished) as f64 / finished as f64;
-        self.at_tenth.get_or_insert(elapsed + left);
-        self.say.then(|| {
-            format!(
-                "vis flow: {}% of the flow done in {}, about {} left",
-                tenth * 10,
-                format_seconds(elapsed),
-                format_seconds(left)
-            )
-        })
+        self.at_tenth = Some(self.start.elapsed().as_secs_f64() * total as f64 / finished as f64);
     }
 }
 
@@ -173,22 +195,63 @@ mod tests {
     }
 
     #[test]
-    fn refinement_says_each_tenth_once_by_progress_weight() {
-        // Nine cheap portals, then one nine times dearer: half the work is the last portal.
-        let mut r = Refine::new([1, 1, 1, 1, 1, 1, 1, 1, 1, 9], 0, true);
-        assert!(r.boundary(0).is_none());
-        assert!(r.boundary(1).is_none(), "a portal of 18 units is not a tenth");
-        assert!(r.at_tenth.is_none());
-        assert!(r.boundary(2).is_some_and(|l| l.starts_with("vis flow: 10% of the flow done")));
-        assert!(r.boundary(2).is_none(), "said once");
-        assert!(r.at_tenth.is_some());
-        assert!(
-            r.boundary(9).is_some_and(|l| l.starts_with("vis flow: 50%")),
-            "nine of ten portals are half"
-        );
-        assert!(r.boundary(10).is_none(), "done: nothing left to estimate");
-        let mut quiet = Refine::new([1, 1], 1, false);
-        assert!(quiet.boundary(2).is_none());
-        assert!(Refine::new([5, 5], 0, false).boundary(1).is_none(), "quiet, but measured");
+    fn progress_weight_grows_with_mightsee_more_slowly_than_it() {
+        assert_eq!(progress_weight(0), PROGRESS_UNIT as u64);
+        let mut last = 0;
+        for m in (0..200_000).step_by(7) {
+            let w = progress_weight(m);
+            assert!(w >= last, "{m}: {w} < {last}");
+            last = w;
+        }
+        assert!(progress_weight(9_999) < 100 * progress_weight(99), "flatter than m");
+        assert!(progress_weight(9_999) > 10 * progress_weight(99), "steeper than its square root");
+        assert!(progress_weight(u64::MAX) > 0, "no overflow");
+    }
+
+    #[test]
+    fn progress_steps_add_up_to_the_portals_and_follow_the_weights() {
+        let mut rng = SplitMix64::new(25);
+        for len in [0usize, 1, 2, 7, 100, 1_000] {
+            let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % 50_000).collect();
+            counts.sort_unstable();
+            let steps = progress_steps(&counts);
+            assert_eq!(steps.len(), len);
+            assert_eq!(steps.iter().sum::<u64>(), len as u64, "{len} portals");
+            // Each prefix is within a step of its share of the weight.
+            let total: f64 = counts.iter().map(|&m| progress_weight(m) as f64).sum();
+            let (mut w, mut s) = (0.0, 0u64);
+            for (&m, &step) in counts.iter().zip(&steps) {
+                w += progress_weight(m) as f64;
+                s += step;
+                assert!((s as f64 - len as f64 * w / total).abs() <= 1.0 + 1e-9, "{s} at {w} of {total}");
+            }
+        }
+        // Cheap portals first: the first half of the portals is less than half of the steps.
+        let counts: Vec<u64> = (0..1_000).collect();
+        let steps = progress_steps(&counts);
+        assert!(steps[..500].iter().sum::<u64>() < 400);
+        assert_eq!(progress_steps(&[u64::MAX, u64::MAX]), [1, 1], "no overflow");
+    }
+
+    #[test]
+    fn refinement_is_made_once_a_tenth_of_the_steps_left_is_done() {
+        // Nine cheap portals, then one nine times dearer: half the steps are the last portal's.
+        let steps = [1, 1, 1, 1, 1, 1, 1, 1, 1, 9];
+        let mut r = Refine::new(&steps, 0);
+        r.boundary(0);
+        r.boundary(1);
+        assert!(r.at_tenth.is_none(), "one step of 18 is not a tenth");
+        r.boundary(2);
+        let first = r.at_tenth.expect("two steps of 18 are");
+        r.boundary(9);
+        assert_eq!(r.at_tenth, Some(first), "made once");
+        // Resumed after eight portals: the tenth is of the ten steps left.
+        let mut resumed = Refine::new(&steps, 8);
+        resumed.boundary(9);
+        assert!(resumed.at_tenth.is_some(), "one step of ten left");
+        let mut done = Refine::new(&steps, 0);
+        done.boundary(10);
+        assert!(done.at_tenth.is_none(), "done at the first boundary: nothing left to estimate");
+        assert_eq!(done.steps_before(10), 18);
     }
 }

@@ -1,6 +1,8 @@
 //! What a run is asked to do ([`VisOptions`]). A run reports as it goes through
-//! [`sightline_job::progress::Progress`]: phases `vis base` and `vis flow`, a step per portal, and
-//! a note when clusters are merged to fit the limits.
+//! [`sightline_job::progress::Progress`]: phases `vis base` (a step per portal) and `vis flow`
+//! (as many steps as one-way portals, each flow bringing its share by expected cost,
+//! [`estimate::progress_steps`](super::estimate::progress_steps)), and a note when clusters are
+//! merged to fit the limits.
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -104,18 +104,22 @@ pub(super) fn flow_all(
         counts[done..].iter().map(|&m| estimate::chains(m, n, nc)).fold(0, |a, w| a.saturating_add(w));
     stats.flow_estimate_seconds =
         estimate::flow_seconds(stats.flow_estimate_work, stats.base_seconds, stats.base_tests);
-    let say = stats.flow_estimate_seconds >= estimate::SAY_SECONDS;
-    if say {
+    if stats.flow_estimate_seconds >= estimate::SAY_SECONDS {
         progress.note(&format!(
             "vis flow: estimated {} for {} portals (from base vis's speed on this run)",
             sightline_job::progress::format_seconds(stats.flow_estimate_seconds),
             n - done
         ));
     }
-    let refine = estimate::Refine::new(counts.iter().map(|&m| estimate::progress_weight(m)), done, say);
+    // The phase counts steps by each portal's expected cost, so the time left it shows is the
+    // refined estimate.
+    let steps = estimate::progress_steps(&counts);
+    let refine = estimate::Refine::new(&steps, done);
     let flow_phase = phase(progress, "vis flow", n as u64);
-    flow_phase.advance(done as u64);
-    let run = Run { g, order: &order, words, n, batch, opts, cap, progress: &flow_phase, notes: progress };
+    if done > 0 {
+        flow_phase.advance(refine.steps_before(done));
+    }
+    let run = Run { g, order: &order, steps: &steps, words, n, batch, opts, cap, progress: &flow_phase };
     let Some(test) = run.batches(Rows { test, seeds, quiet }, done, log, refine, stats)? else {
         return Ok(None);
     };
@@ -140,6 +144,8 @@ struct Rows {
 struct Run<'a> {
     g: &'a graph::Graph,
     order: &'a [usize],
+    /// Per position of `order`, its steps of the progress phase ([`estimate::progress_steps`]).
+    steps: &'a [u64],
     words: usize,
     n: usize,
     /// Portals per batch ([`flow_batch`]).
@@ -148,8 +154,6 @@ struct Run<'a> {
     /// Stop once more chains than this are folded ([`flow_all`]).
     cap: Option<u64>,
     progress: &'a Phase<'a>,
-    /// Where the refined estimates are said.
-    notes: &'a dyn Progress,
 }
 
 /// The batch in flight and what its last finisher needs.
@@ -374,7 +378,7 @@ impl Run<'_> {
                 (slot.chains, slot.dropped) = (f.chains, f.dropped());
             }
             let finished = cursor.finished.fetch_add(1, Ordering::AcqRel) + 1;
-            self.progress.advance(1);
+            self.progress.advance(self.steps[pos]);
             if finished == batch_end - batch_start {
                 rows = None;
                 self.close_batch(batch_start, batch_end, test, slots, cursor, boundary);
@@ -421,9 +425,7 @@ impl Run<'_> {
             }
         }
         let done = batch_end;
-        if let Some(line) = b.refine.boundary(done) {
-            self.notes.note(&line);
-        }
+        b.refine.boundary(done);
         b.stats.flow_refined_seconds = b.refine.at_tenth;
         if done < n && self.cap.is_some_and(|cap| b.stats.chains > cap) {
             b.capped = true;

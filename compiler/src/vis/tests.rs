@@ -841,3 +841,44 @@ fn a_flow_through_clusters_a_line_leaves_and_reenters_keeps_every_walked_line() 
     }
     assert!(looping > 200, "only {looping} lines came back into a merged cluster");
 }
+
+/// Records the advances of the `vis flow` phase and its total.
+#[derive(Default)]
+struct FlowSteps {
+    flow: std::sync::atomic::AtomicBool,
+    total: std::sync::atomic::AtomicU64,
+    each: std::sync::Mutex<Vec<u64>>,
+}
+
+impl Progress for FlowSteps {
+    fn begin(&self, phase: &str, total: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.flow.store(phase == "vis flow", Relaxed);
+        if phase == "vis flow" {
+            self.total.store(total, Relaxed);
+        }
+    }
+    fn advance(&self, n: u64) {
+        if self.flow.load(std::sync::atomic::Ordering::Relaxed) {
+            self.each.lock().expect("steps").push(n);
+        }
+    }
+    fn end(&self) {}
+}
+
+/// The flow's phase counts a portal's steps by its expected cost: one advance per flow, the
+/// steps add up to the one-way portals (the phase's total), and the first half of the flows,
+/// the cheaper ones, bring less than half of them.
+#[test]
+fn the_flow_phase_counts_steps_by_expected_cost() {
+    let prt = grid(30, 24, 7);
+    let steps = FlowSteps::default();
+    run(&prt, &VisOptions { threads: 1, ..VisOptions::default() }, &steps).expect("vis");
+    let each = steps.each.into_inner().expect("steps");
+    let total = steps.total.into_inner();
+    assert_eq!(each.len() as u64, total, "one advance per one-way portal");
+    assert_eq!(each.iter().sum::<u64>(), total);
+    let half: u64 = each[..each.len() / 2].iter().sum();
+    assert!(half < total / 2, "{half} of {total} steps in the first half of the flows");
+    assert!(each.contains(&0) && each.iter().any(|&s| s > 1), "steps follow the cost");
+}
