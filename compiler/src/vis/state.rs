@@ -332,12 +332,15 @@ pub fn load(path: &Path, want: &Expect) -> Result<Option<State>, VisError> {
     }
 }
 
-/// The input hash of the state in the file at `path`, when it holds a readable one: which of a
-/// `--coarsen` run's merges it belongs to (see `run`). `None` for a missing or unreadable file,
-/// which [`load`] then reports.
+/// The input hash a state file at `path` says it has: which of a `--coarsen` run's merges it
+/// belongs to (see `run`). Only the file's first 16 bytes are read (a state is encoded with
+/// fixed-width integers, [`State::magic`] then [`State::input_hash`]); [`load`] then reads and
+/// checks the whole file. `None` for a missing file, one that is not a regular file, or one
+/// without this version's magic, which [`load`] then reports.
 pub fn input_hash_of(path: &Path) -> Option<u64> {
-    let bytes = sightline_job::input::read_input(path).ok()?;
-    decode(&bytes).ok().map(|state| state.input_hash)
+    let head = sightline_job::input::read_input_head(path, 16).ok()?;
+    let (magic, hash) = (head.get(..8)?, head.get(8..16)?);
+    (magic == MAGIC.to_le_bytes()).then(|| u64::from_le_bytes(hash.try_into().unwrap_or_default()))
 }
 
 /// The error for a state whose content cannot come from a run.
@@ -361,6 +364,28 @@ mod tests {
         st.push(&[5], 3, true, [(0, 1)]);
         st.push(&[7], 4, false, [(1, 2), (2, 0)]);
         st
+    }
+
+    /// A run picks the merge a state file belongs to by its head alone.
+    #[test]
+    fn the_input_hash_is_read_from_the_head() {
+        let dir = std::env::temp_dir().join(format!("sightline-vis-state-head-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("s.state");
+        save(&path, &sample()).expect("save");
+        assert_eq!(input_hash_of(&path), Some(42));
+        let good = std::fs::read(&path).expect("read");
+        let mut other = good.clone();
+        other[8] ^= 1;
+        std::fs::write(&path, &other).expect("write");
+        assert_eq!(input_hash_of(&path), Some(42 ^ 1), "the head only: load checks the rest");
+        for bad in [&good[..15], &[&good[..7], &[good[7] ^ 1], &good[8..]].concat()[..]] {
+            std::fs::write(&path, bad).expect("write");
+            assert_eq!(input_hash_of(&path), None, "{} bytes", bad.len());
+        }
+        assert_eq!(input_hash_of(&dir), None, "a folder");
+        assert_eq!(input_hash_of(&dir.join("missing")), None);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

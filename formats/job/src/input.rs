@@ -95,6 +95,18 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>, InputError> {
     Ok(bytes)
 }
 
+/// At most the first `max` bytes of the regular file at `path`, refused as [`read_input`]
+/// refuses (fewer when the file is shorter): a header read without the file's body.
+pub fn read_input_head(path: &Path, max: usize) -> Result<Vec<u8>, InputError> {
+    let io = |source| InputError::Io { path: path.to_path_buf(), source };
+    regular(path, &std::fs::metadata(path).map_err(io)?)?;
+    let file = open(path).map_err(io)?;
+    regular(path, &file.metadata().map_err(io)?)?;
+    let mut bytes = Vec::with_capacity(max);
+    file.take(max as u64).read_to_end(&mut bytes).map_err(io)?;
+    Ok(bytes)
+}
+
 /// `meta` when it describes a regular file, else the error saying what `path` is.
 fn regular<'m>(path: &Path, meta: &'m Metadata) -> Result<&'m Metadata, InputError> {
     if meta.is_file() {
@@ -173,6 +185,17 @@ mod tests {
     }
 
     #[test]
+    fn a_head_is_at_most_its_bytes() {
+        let d = dir("head");
+        let a = d.join("a.state");
+        std::fs::write(&a, b"0123456789").expect("write");
+        assert_eq!(read_input_head(&a, 4).expect("head"), b"0123");
+        assert_eq!(read_input_head(&a, 16).expect("short file"), b"0123456789");
+        assert!(read_input_head(&d.join("missing"), 4).expect_err("missing").is_not_found());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
     fn what_is_not_a_regular_file_is_refused_naming_it_and_what_it_is() {
         let d = dir("special");
         let mut cases: Vec<(PathBuf, &str)> = vec![(d.clone(), "folder")];
@@ -201,6 +224,8 @@ mod tests {
             let msg = e.to_string();
             assert!(msg.contains(&path.display().to_string()) && msg.contains(what), "{msg}");
             assert_eq!(e.path(), path);
+            let head = read_input_head(&path, 16).expect_err("its head refused too");
+            assert!(matches!(head, InputError::NotAFile { .. }), "{}: {head:?}", path.display());
         }
         let _ = std::fs::remove_dir_all(&d);
     }
