@@ -54,22 +54,26 @@ pub fn flow_seconds(work: u64, base_seconds: f64, base_tests: u64) -> f64 {
     CHAIN_PER_BASE_TEST * base_seconds / base_tests as f64 * work as f64
 }
 
-/// A portal's share of the flow's progress, for [`Refine`]: `(1 + mightsee)^`[`PROGRESS_EXPONENT`]
-/// in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`.
-pub fn progress_weight(mightsee: u64) -> u64 {
+/// A portal's share of the flow's progress ([`progress_steps`]): its predicted [`chains`] (for a
+/// map of `portals` one-way portals and `clusters` clusters) to the power [`PROGRESS_EXPONENT`],
+/// in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for portals whose chains reach
+/// the clusters' cap, as on a map merged into a few clusters, whose early flows cost as much as
+/// its late ones.
+pub fn progress_weight(mightsee: u64, portals: usize, clusters: usize) -> u64 {
     // `as` saturates: a huge weight stays finite.
-    ((mightsee as f64 + 1.0).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
+    ((chains(mightsee, portals, clusters) as f64).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
 }
 
-/// How a portal's progress weight grows with its `mightsee` ([`progress_weight`]). Within one map
-/// a flow's time grows more slowly with `m` than across maps. Per-flow times of 36 maps (the
-/// shared ones and the heavy set, 2026-11-29) replayed through [`Refine`] gave, as the worst
-/// ratio either way between the real flow time and the estimate refined at 10 % of the elapsed
-/// time, 3.75 with weights `1 + m`, 2.16 with this exponent and 4.5 with one step per portal;
-/// at the first tenth of the progress 2.72 and 2.70; at 20 % of the elapsed time 3.00 and 1.97.
-pub const PROGRESS_EXPONENT: f64 = 0.75;
+/// How a portal's progress weight grows with its predicted chains ([`progress_weight`]): within
+/// one map a flow's time grows more slowly than the chains the model fits across maps. Per-flow
+/// times of 36 maps (the shared ones and the heavy set, 2026-11-29) replayed through [`Refine`]
+/// gave, as the worst ratio either way between the real flow time and the estimate refined at
+/// 10 % of the elapsed time, 1.70 with this exponent (0.45: 1.81, 0.55: 2.07), 2.16 with
+/// `(1 + m)^0.75`, 3.75 with `1 + m` and 4.50 with one step per portal; at 20 % of the elapsed
+/// time 1.91, 1.97, 3.00 and 2.70; at the first tenth of the steps 2.22, 2.70 and 2.72.
+pub const PROGRESS_EXPONENT: f64 = 0.5;
 
-/// Steps per unit of [`progress_weight`], so portals of small `mightsee` keep their differences.
+/// Steps per unit of [`progress_weight`], so portals of few chains keep their differences.
 pub const PROGRESS_UNIT: f64 = 256.0;
 
 /// First estimates at or above this many seconds are said (a progress note). The flow's
@@ -77,19 +81,20 @@ pub const PROGRESS_UNIT: f64 = 256.0;
 pub const SAY_SECONDS: f64 = 10.0;
 
 /// The steps of the flow's progress phase per position of the processing order, for portals
-/// whose `mightsee` counts are `counts` (in that order): their [`progress_weight`]s scaled so
-/// that the steps add up to the portal count, each position taking the steps its weight brings
-/// the running total to. A phase's time left (the elapsed time scaled by the steps left over
-/// the steps done) is then the refined estimate: the cheap portals processed first do not make
-/// the rest look short, as a step per portal did.
-pub fn progress_steps(counts: &[u64]) -> Vec<u64> {
+/// whose `mightsee` counts are `counts` (in that order) in a map of `clusters` clusters: their
+/// [`progress_weight`]s scaled so that the steps add up to the portal count, each position
+/// taking the steps its weight brings the running total to. A phase's time left (the elapsed
+/// time scaled by the steps left over the steps done) is then the refined estimate: the cheap
+/// portals processed first do not make the rest look short, as a step per portal did.
+pub fn progress_steps(counts: &[u64], clusters: usize) -> Vec<u64> {
     let n = counts.len() as u128;
-    let total: u128 = counts.iter().map(|&m| u128::from(progress_weight(m))).sum::<u128>().max(1);
+    let weight_of = |m: u64| u128::from(progress_weight(m, counts.len(), clusters));
+    let total: u128 = counts.iter().map(|&m| weight_of(m)).sum::<u128>().max(1);
     let (mut weight, mut steps) = (0u128, 0u64);
     counts
         .iter()
         .map(|&m| {
-            weight += u128::from(progress_weight(m));
+            weight += weight_of(m);
             // At most `n`, which is a `usize`.
             let upto = (n * weight / total) as u64;
             let step = upto - steps;
@@ -195,42 +200,50 @@ mod tests {
     }
 
     #[test]
-    fn progress_weight_grows_with_mightsee_more_slowly_than_it() {
-        assert_eq!(progress_weight(0), PROGRESS_UNIT as u64);
+    fn progress_weight_follows_the_chains_flattened_and_stops_at_their_cap() {
+        let many = usize::MAX;
+        assert_eq!(progress_weight(0, 5_000, many), PROGRESS_UNIT as u64, "one chain");
         let mut last = 0;
         for m in (0..200_000).step_by(7) {
-            let w = progress_weight(m);
+            let w = progress_weight(m, 200_000, many);
             assert!(w >= last, "{m}: {w} < {last}");
             last = w;
         }
-        assert!(progress_weight(9_999) < 100 * progress_weight(99), "flatter than m");
-        assert!(progress_weight(9_999) > 10 * progress_weight(99), "steeper than its square root");
-        assert!(progress_weight(u64::MAX) > 0, "no overflow");
+        let (big, small) = (progress_weight(9_999, 10_000, many), progress_weight(999, 10_000, many));
+        let (cb, cs) = (chains(9_999, 10_000, many), chains(999, 10_000, many));
+        assert!(big < small * (cb / cs), "flatter than the chains");
+        assert!(big > 10 * small, "steeper than a step per portal");
+        // Merged into 73 clusters, every portal that might see most of the map weighs alike.
+        assert_eq!(progress_weight(40_000, 87_000, 73), progress_weight(87_000, 87_000, 73));
+        assert!(progress_weight(u64::MAX, 1, many) > 0, "no overflow");
     }
 
     #[test]
     fn progress_steps_add_up_to_the_portals_and_follow_the_weights() {
         let mut rng = SplitMix64::new(25);
-        for len in [0usize, 1, 2, 7, 100, 1_000] {
-            let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % 50_000).collect();
+        for (len, clusters) in
+            [(0usize, 1usize), (1, 1), (2, 5), (7, 3), (100, 40), (1_000, 50), (1_000, 900)]
+        {
+            let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % (len as u64 + 1)).collect();
             counts.sort_unstable();
-            let steps = progress_steps(&counts);
+            let steps = progress_steps(&counts, clusters);
             assert_eq!(steps.len(), len);
             assert_eq!(steps.iter().sum::<u64>(), len as u64, "{len} portals");
             // Each prefix is within a step of its share of the weight.
-            let total: f64 = counts.iter().map(|&m| progress_weight(m) as f64).sum();
+            let weight = |m: u64| progress_weight(m, len, clusters) as f64;
+            let total: f64 = counts.iter().map(|&m| weight(m)).sum();
             let (mut w, mut s) = (0.0, 0u64);
             for (&m, &step) in counts.iter().zip(&steps) {
-                w += progress_weight(m) as f64;
+                w += weight(m);
                 s += step;
                 assert!((s as f64 - len as f64 * w / total).abs() <= 1.0 + 1e-9, "{s} at {w} of {total}");
             }
         }
         // Cheap portals first: the first half of the portals is less than half of the steps.
         let counts: Vec<u64> = (0..1_000).collect();
-        let steps = progress_steps(&counts);
+        let steps = progress_steps(&counts, 900);
         assert!(steps[..500].iter().sum::<u64>() < 400);
-        assert_eq!(progress_steps(&[u64::MAX, u64::MAX]), [1, 1], "no overflow");
+        assert_eq!(progress_steps(&[u64::MAX, u64::MAX], usize::MAX), [1, 1], "no overflow");
     }
 
     #[test]

@@ -113,7 +113,7 @@ pub(super) fn flow_all(
     }
     // The phase counts steps by each portal's expected cost, so the time left it shows is the
     // refined estimate.
-    let steps = estimate::progress_steps(&counts);
+    let steps = estimate::progress_steps(&counts, nc);
     let refine = estimate::Refine::new(&steps, done);
     let flow_phase = phase(progress, "vis flow", n as u64);
     if done > 0 {

@@ -49,9 +49,9 @@ pub struct VisStats {
     /// ([`estimate::flow_seconds`](super::estimate::flow_seconds)); its accuracy is measured in
     /// `docs/benchmarks.md`.
     pub flow_estimate_seconds: f64,
-    /// The estimate of `flow_seconds` refined once a tenth of the flow was done (elapsed time
-    /// scaled by the progress left, [`estimate::Refine`](super::estimate::Refine)), when the flow
-    /// got that far.
+    /// The estimate of `flow_seconds` refined once a tenth of the flow's steps was done (elapsed
+    /// time scaled by all the steps over those done, [`estimate::Refine`](super::estimate::Refine);
+    /// steps weigh portals by expected cost), when the flow got that far.
     pub flow_refined_seconds: Option<f64>,
     /// Seconds in the flow.
     pub flow_seconds: f64,
