@@ -32,7 +32,13 @@ pub fn mask(i: usize) -> u64 {
 /// the last word of a row whose length is not a multiple of 64, and none beyond the row.
 #[inline]
 pub fn valid_mask(w: usize, bits: usize) -> u64 {
-    if (w + 1) * 64 <= bits { u64::MAX } else { mask(bits) - 1 }
+    if (w + 1) * 64 <= bits {
+        u64::MAX
+    } else if w * 64 >= bits {
+        0
+    } else {
+        mask(bits) - 1
+    }
 }
 
 /// Test bit `i`.
@@ -150,6 +156,8 @@ mod tests {
         assert_eq!(valid_mask(1, 130), u64::MAX);
         assert_eq!(valid_mask(2, 130), 0b11);
         assert_eq!(valid_mask(0, 5), 0b1_1111);
+        assert_eq!(valid_mask(3, 130), 0, "beyond the row");
+        assert_eq!(valid_mask(2, 128), 0);
     }
 
     #[test]

@@ -44,6 +44,9 @@
 //! A frame remembers how many of the chain's clusters already have all their pairs recorded, so a
 //! line certified one frame deeper records only the pairs of the clusters after those: along a
 //! straight corridor, a number of pairs growing with the depth rather than with its square.
+//! When the seeds are most of the clusters, a flow covers every portal and uncovers those into
+//! the others, rather than covering the seeded clusters' portals one by one: on the
+//! 10,000-brush room merged into 73 clusters, 87,010 bits a flow, and 11 % of the flow's time.
 //!
 //! Explored frames: a flow keeps the frames it has explored ([`Explored`]), and a frame whose
 //! source, pass and `might` lie inside those of one kept for the same portal is not explored
@@ -301,9 +304,15 @@ impl Flow {
         let p = &g.portals[base];
         let (through, of_cluster) =
             (seeds.row(seeds.through(base as u32) as usize), seeds.row(seeds.of_cluster(p.owner) as usize));
-        for (w, (&a, &b)) in through.iter().zip(of_cluster).enumerate() {
-            for c in bits::word_ones(w, a | b) {
-                self.see(g, c as u32);
+        let seeded: usize =
+            through.iter().zip(of_cluster).map(|(&a, &b)| (a | b).count_ones() as usize).sum();
+        if 2 * seeded > g.num_clusters() {
+            see_most(&mut self.seen, &mut self.vis, g, through, of_cluster);
+        } else {
+            for (w, (&a, &b)) in through.iter().zip(of_cluster).enumerate() {
+                for c in bits::word_ones(w, a | b) {
+                    self.see(g, c as u32);
+                }
             }
         }
         self.see(g, p.leaf);
@@ -688,6 +697,28 @@ fn see(seen: &mut [u64], vis: &mut [u64], g: &Graph, c: u32) {
     }
 }
 
+/// [`see`] every cluster of `through | of_cluster` (rows of cluster bits) on empty `seen` and
+/// `vis`, when they are most of the clusters: every portal is covered, then the portals into the
+/// clusters not seen are uncovered. Each one-way portal leads into exactly one cluster, so `vis`
+/// is the same; on a map merged into a few clusters, where earlier flows saw nearly all of them,
+/// it sets a row's words instead of tens of thousands of bits one by one in every flow.
+fn see_most(seen: &mut [u64], vis: &mut [u64], g: &Graph, through: &[u64], of_cluster: &[u64]) {
+    let (n, nc) = (g.portals.len(), g.num_clusters());
+    for (w, (s, (&a, &b))) in seen.iter_mut().zip(through.iter().zip(of_cluster)).enumerate() {
+        *s = (a | b) & bits::valid_mask(w, nc);
+    }
+    for (w, v) in vis.iter_mut().enumerate() {
+        *v = bits::valid_mask(w, n);
+    }
+    for (c, incoming) in g.cluster_incoming.iter().enumerate() {
+        if !bits::get(seen, c) {
+            for &q in incoming {
+                bits::clear(vis, q as usize);
+            }
+        }
+    }
+}
+
 impl Frame {
     /// Portal `pi` is still in `might`.
     #[inline]
@@ -848,6 +879,31 @@ mod tests {
             );
         }
         assert!(keeping.chains < not.chains, "{} chains against {}", keeping.chains, not.chains);
+    }
+
+    /// Seeding most clusters by covering every portal and uncovering the rest gives the rows
+    /// marking each seeded cluster seen gives (random seed rows, with stray bits past the
+    /// clusters, on grids whose cluster and portal counts are not multiples of 64).
+    #[test]
+    fn seeing_most_clusters_at_once_marks_what_seeing_each_marks() {
+        let mut rng = sightline_job::rng::SplitMix64::new(25);
+        for (x, y) in [(30, 24), (7, 5), (9, 8)] {
+            let g = Graph::new(&crate::vis::tests::grid(x, y, 3));
+            let (n, nc) = (g.portals.len(), g.num_clusters());
+            let cw = bits::words(nc);
+            for _ in 0..20 {
+                let mut row = || (0..cw).map(|_| rng.next_u64() | rng.next_u64()).collect::<Vec<u64>>();
+                let (through, of_cluster) = (row(), row());
+                let (mut seen, mut vis) = (vec![0u64; cw], vec![0u64; bits::words(n)]);
+                for c in (0..nc).filter(|&c| bits::get(&through, c) || bits::get(&of_cluster, c)) {
+                    see(&mut seen, &mut vis, &g, c as u32);
+                }
+                let (mut most_seen, mut most_vis) = (vec![!0u64; cw], vec![!0u64; bits::words(n)]);
+                see_most(&mut most_seen, &mut most_vis, &g, &through, &of_cluster);
+                assert_eq!(most_seen, seen, "{x} x {y}");
+                assert_eq!(most_vis, vis, "{x} x {y}");
+            }
+        }
     }
 
     #[test]
