@@ -88,13 +88,14 @@ pub const SAY_SECONDS: f64 = 10.0;
 /// portals processed first do not make the rest look short, as a step per portal did.
 pub fn progress_steps(counts: &[u64], clusters: usize) -> Vec<u64> {
     let n = counts.len() as u128;
-    let weight_of = |m: u64| u128::from(progress_weight(m, counts.len(), clusters));
-    let total: u128 = counts.iter().map(|&m| weight_of(m)).sum::<u128>().max(1);
+    let weights: Vec<u128> =
+        counts.iter().map(|&m| u128::from(progress_weight(m, counts.len(), clusters))).collect();
+    let total: u128 = weights.iter().sum::<u128>().max(1);
     let (mut weight, mut steps) = (0u128, 0u64);
-    counts
+    weights
         .iter()
-        .map(|&m| {
-            weight += weight_of(m);
+        .map(|&w| {
+            weight += w;
             // At most `n`, which is a `usize`.
             let upto = (n * weight / total) as u64;
             let step = upto - steps;

@@ -294,8 +294,6 @@ impl Flow {
     /// portals into clusters seen only through the cluster's other portals, which the cluster's
     /// row holds anyway). The seeds the run certifies are recorded in `seeds`.
     pub fn run(&mut self, g: &Graph, test: &[u64], seeds: &Seeds, base: usize, trial: u32, out: &mut [u64]) {
-        self.vis.fill(0);
-        self.seen.fill(0);
         self.explored.clear();
         self.culls = 0;
         self.culled = false;
@@ -304,17 +302,7 @@ impl Flow {
         let p = &g.portals[base];
         let (through, of_cluster) =
             (seeds.row(seeds.through(base as u32) as usize), seeds.row(seeds.of_cluster(p.owner) as usize));
-        let seeded: usize =
-            through.iter().zip(of_cluster).map(|(&a, &b)| (a | b).count_ones() as usize).sum();
-        if 2 * seeded > g.num_clusters() {
-            see_most(&mut self.seen, &mut self.vis, g, through, of_cluster);
-        } else {
-            for (w, (&a, &b)) in through.iter().zip(of_cluster).enumerate() {
-                for c in bits::word_ones(w, a | b) {
-                    self.see(g, c as u32);
-                }
-            }
-        }
+        see_seeds(&mut self.seen, &mut self.vis, g, through, of_cluster);
         self.see(g, p.leaf);
         self.see(g, p.owner);
         self.frame(0);
@@ -697,15 +685,27 @@ fn see(seen: &mut [u64], vis: &mut [u64], g: &Graph, c: u32) {
     }
 }
 
-/// [`see`] every cluster of `through | of_cluster` (rows of cluster bits) on empty `seen` and
-/// `vis`, when they are most of the clusters: every portal is covered, then the portals into the
-/// clusters not seen are uncovered. Each one-way portal leads into exactly one cluster, so `vis`
-/// is the same; on a map merged into a few clusters, where earlier flows saw nearly all of them,
-/// it sets a row's words instead of tens of thousands of bits one by one in every flow.
-fn see_most(seen: &mut [u64], vis: &mut [u64], g: &Graph, through: &[u64], of_cluster: &[u64]) {
+/// Start `seen` and `vis` (whatever they held) from the clusters of `through | of_cluster` (rows
+/// of cluster bits), as [`see`] of each would on empty rows. When they are most of the clusters,
+/// every portal is covered, then the portals into the clusters not seen are uncovered: each
+/// one-way portal leads into exactly one cluster, so `vis` is the same, and on a map merged into
+/// a few clusters, where earlier flows saw nearly all of them, a flow sets a row's words instead
+/// of tens of thousands of bits one by one.
+fn see_seeds(seen: &mut [u64], vis: &mut [u64], g: &Graph, through: &[u64], of_cluster: &[u64]) {
     let (n, nc) = (g.portals.len(), g.num_clusters());
     for (w, (s, (&a, &b))) in seen.iter_mut().zip(through.iter().zip(of_cluster)).enumerate() {
         *s = (a | b) & bits::valid_mask(w, nc);
+    }
+    let seeded: usize = seen.iter().map(|w| w.count_ones() as usize).sum();
+    if 2 * seeded <= nc {
+        seen.fill(0);
+        vis.fill(0);
+        for (w, (&a, &b)) in through.iter().zip(of_cluster).enumerate() {
+            for c in bits::word_ones(w, (a | b) & bits::valid_mask(w, nc)) {
+                see(seen, vis, g, c as u32);
+            }
+        }
+        return;
     }
     for (w, v) in vis.iter_mut().enumerate() {
         *v = bits::valid_mask(w, n);
@@ -816,126 +816,4 @@ fn narrow_source(level: u8, convex: bool, frames: &mut [Frame], head: &Head, scr
 }
 
 #[cfg(test)]
-mod tests {
-    use glam::DVec3;
-    use sightline_formats::geom::Winding;
-    use sightline_formats::prt::{PortalFile, PrtPortal};
-
-    use super::*;
-    use crate::vis::base;
-
-    /// A straight corridor of `n` leaves along +x; line `i` joins leaves `i` and `i + 1`, so
-    /// one-way portal `2i` leads forward from leaf `i`.
-    fn corridor(n: u32) -> PortalFile {
-        let portals = (0..n - 1)
-            .map(|i| {
-                let x = 64.0 * f64::from(i + 1);
-                let pts =
-                    [(0.0, 0.0), (64.0, 0.0), (64.0, 64.0), (0.0, 64.0)].map(|(y, z)| DVec3::new(x, y, z));
-                PrtPortal { leaves: [i, i + 1], winding: Winding::new(pts.to_vec()) }
-            })
-            .collect();
-        PortalFile::prt1(n, portals)
-    }
-
-    #[test]
-    fn a_chain_longer_than_max_depth_stops_there_keeping_everything_it_might_see() {
-        let n = 3 * MAX_FLOW_DEPTH as u32;
-        let g = Graph::new(&corridor(n));
-        let words = bits::words(g.portals.len());
-        let might = base::mightsee(&g, words, 1, &|| {}).rows;
-        let seeds = Seeds::new(g.portals.len(), g.num_clusters());
-        for seeding in [false, true] {
-            let mut flow = Flow::new(g.portals.len(), g.num_clusters(), 4, seeding);
-            let mut out = vec![0u64; words];
-            flow.run(&g, &might, &seeds, 0, BEAM_TRIAL, &mut out);
-            // Every portal ahead is visible, though the flow stopped at MAX_FLOW_DEPTH frames.
-            assert_eq!(out, might[..words], "seeding {seeding}");
-            assert_eq!(bits::count(&out), u64::from(n - 2));
-            assert_eq!(flow.frames.len(), MAX_FLOW_DEPTH + 1);
-            assert_eq!(flow.chains, MAX_FLOW_DEPTH as u64 + 1);
-        }
-    }
-
-    #[test]
-    fn frames_covered_by_explored_ones_are_skipped_and_rows_only_get_tighter() {
-        let prt = crate::vis::tests::grid(30, 24, 7);
-        let g = Graph::new(&prt);
-        let words = bits::words(g.portals.len());
-        let might = base::mightsee(&g, words, 1, &|| {}).rows;
-        let seeds = Seeds::new(g.portals.len(), g.num_clusters());
-        // The grid's flows are short: every frame that went deeper is kept.
-        let flow =
-            |keep_chains| Flow { keep_chains, ..Flow::new(g.portals.len(), g.num_clusters(), 4, false) };
-        let (mut keeping, mut not) = (flow(2), flow(u64::MAX));
-        let (mut a, mut b) = (vec![0u64; words], vec![0u64; words]);
-        for base in 0..g.portals.len() {
-            keeping.run(&g, &might, &seeds, base, BEAM_TRIAL, &mut a);
-            not.run(&g, &might, &seeds, base, BEAM_TRIAL, &mut b);
-            // A covered frame's lines are those of the frame covering it, which found all they reach.
-            assert!(
-                a.iter().zip(&b).all(|(x, y)| x & !y == 0),
-                "portal {base}: a portal only the store found"
-            );
-        }
-        assert!(keeping.chains < not.chains, "{} chains against {}", keeping.chains, not.chains);
-    }
-
-    /// Seeding most clusters by covering every portal and uncovering the rest gives the rows
-    /// marking each seeded cluster seen gives (random seed rows, with stray bits past the
-    /// clusters, on grids whose cluster and portal counts are not multiples of 64).
-    #[test]
-    fn seeing_most_clusters_at_once_marks_what_seeing_each_marks() {
-        let mut rng = sightline_job::rng::SplitMix64::new(25);
-        for (x, y) in [(30, 24), (7, 5), (9, 8)] {
-            let g = Graph::new(&crate::vis::tests::grid(x, y, 3));
-            let (n, nc) = (g.portals.len(), g.num_clusters());
-            let cw = bits::words(nc);
-            for _ in 0..20 {
-                let mut row = || (0..cw).map(|_| rng.next_u64() | rng.next_u64()).collect::<Vec<u64>>();
-                let (through, of_cluster) = (row(), row());
-                let (mut seen, mut vis) = (vec![0u64; cw], vec![0u64; bits::words(n)]);
-                for c in (0..nc).filter(|&c| bits::get(&through, c) || bits::get(&of_cluster, c)) {
-                    see(&mut seen, &mut vis, &g, c as u32);
-                }
-                let (mut most_seen, mut most_vis) = (vec![!0u64; cw], vec![!0u64; bits::words(n)]);
-                see_most(&mut most_seen, &mut most_vis, &g, &through, &of_cluster);
-                assert_eq!(most_seen, seen, "{x} x {y}");
-                assert_eq!(most_vis, vis, "{x} x {y}");
-            }
-        }
-    }
-
-    #[test]
-    fn the_trial_shortens_after_a_run_of_quiet_flows_and_a_drop_restores_it() {
-        let mut quiet = 0;
-        for k in 0..QUIET_FLOWS {
-            assert_eq!(trial_after(quiet), BEAM_TRIAL, "after {k} quiet flows");
-            quiet = quiet_after(quiet, false);
-        }
-        assert_eq!(trial_after(quiet), QUIET_TRIAL);
-        assert_eq!(trial_after(quiet_after(quiet, false)), QUIET_TRIAL);
-        assert_eq!(trial_after(quiet_after(quiet, true)), BEAM_TRIAL);
-        assert_eq!(quiet_after(usize::MAX, false), usize::MAX);
-    }
-
-    #[test]
-    fn a_flow_whose_culls_drop_nothing_stops_culling_with_the_same_result() {
-        // Along a straight corridor every portal ahead is visible, so no cull drops one.
-        let g = Graph::new(&corridor(48));
-        let words = bits::words(g.portals.len());
-        let might = base::mightsee(&g, words, 1, &|| {}).rows;
-        let seeds = Seeds::new(g.portals.len(), g.num_clusters());
-        let mut rows = Vec::new();
-        for trial in [QUIET_TRIAL, BEAM_TRIAL, u32::MAX] {
-            let mut flow = Flow::new(g.portals.len(), g.num_clusters(), 4, false);
-            let mut out = vec![0u64; words];
-            flow.run(&g, &might, &seeds, 0, trial, &mut out);
-            assert!(!flow.dropped(), "nothing to drop in a straight corridor");
-            assert_eq!(flow.culls, trial.min(45), "trial {trial}: one cull per frame from 1 to 45");
-            rows.push(out);
-        }
-        assert!(rows.iter().all(|r| *r == rows[0]));
-        assert_eq!(bits::count(&rows[0]), 46);
-    }
-}
+mod tests;
