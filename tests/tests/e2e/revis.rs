@@ -3,7 +3,7 @@
 //! pairs), the same for any thread count;
 //! see-through water sees strictly more than opaque water; and an external `.vis` record made for
 //! a map decodes to the PVS computed. (The real binary, with ray validation, is exercised in
-//! `tools/sightline/tests/cli.rs`.)
+//! `tools/sightline/tests/cli/revis.rs`.)
 
 use sightline_compiler::bsp_portals::{self, BspPortalOptions};
 use sightline_compiler::contents::LiquidSight;
