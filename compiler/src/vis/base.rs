@@ -20,18 +20,69 @@ use sightline_formats::bits;
 pub const COPLANAR_EPSILON: f64 = 1e-5;
 
 /// True when some point of `t` lies in front of `p` by more than [`COPLANAR_EPSILON`], for a
-/// pair whose bounding spheres leave it open.
+/// pair whose bounding spheres and boxes leave it open.
 #[inline]
 fn any_in_front(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
     g.winding(t).iter().any(|q| p.plane.distance(*q) > COPLANAR_EPSILON)
 }
 
 /// True when some point of `p` lies behind `t` by more than [`COPLANAR_EPSILON`], for a pair
-/// whose bounding spheres leave it open.
+/// whose bounding spheres and boxes leave it open.
 #[inline]
 fn any_behind(g: &Graph, p: &OneWay, t: &OneWay) -> bool {
     g.winding(p).iter().any(|q| t.plane.distance(*q) < -COPLANAR_EPSILON)
 }
+
+/// A winding's box ([`Span`]): its points' least and greatest coordinates, and whether every
+/// corner of it is one of the points (a rectangle lying along the axes, as most portals of
+/// axis-aligned brushes are).
+#[derive(Clone, Copy)]
+struct WindingBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    corners: bool,
+}
+
+impl WindingBox {
+    fn of(points: &[DVec3]) -> Self {
+        let lo = points.iter().fold(DVec3::splat(f64::MAX), |a, &q| a.min(q)).to_array();
+        let hi = points.iter().fold(DVec3::splat(f64::MIN), |a, &q| a.max(q)).to_array();
+        // Four distinct points, each on a corner, and the box flat along an axis: then they are
+        // its four corners.
+        let on_corners = points.iter().all(|q| (0..3).all(|i| q[i] == lo[i] || q[i] == hi[i]));
+        let distinct = points.iter().enumerate().all(|(i, q)| !points[..i].contains(q));
+        let flat = (0..3).any(|i| lo[i] == hi[i]);
+        Self { lo, hi, corners: points.len() == 4 && on_corners && distinct && flat }
+    }
+
+    /// Whether some point lies above `level` in front of the plane `(n, d)` (`n · x - d >
+    /// level`), when the box decides it: the least and the greatest of `n · x - d` over the box
+    /// bound the points', and when every corner is a point the greatest is a point's. A box
+    /// decides only when it clears the level by [`BOX_SLACK`] times the magnitudes involved, far
+    /// above the rounding of either sum, so it decides as the points' own tests would.
+    #[inline]
+    fn any_above(&self, n: DVec3, d: f64, level: f64) -> Option<bool> {
+        let (mut least, mut most, mut size) = (-d, -d, d.abs());
+        for i in 0..3 {
+            let (a, b) = (n[i] * self.lo[i], n[i] * self.hi[i]);
+            least += a.min(b);
+            most += a.max(b);
+            size += a.abs().max(b.abs());
+        }
+        let margin = BOX_SLACK * size;
+        if most <= level - margin {
+            Some(false)
+        } else if least > level + margin || (self.corners && most > level + margin) {
+            Some(true)
+        } else {
+            None
+        }
+    }
+}
+
+/// The share of the magnitudes of `n · x` and `d` a box must clear a level by
+/// ([`WindingBox::any_above`]).
+const BOX_SLACK: f64 = 1e-9;
 
 /// Per cluster, the one-way portals leading out of it, side by side: what the flood reads for
 /// each portal it meets, in one run of memory per cluster (entries `start[c]..start[c + 1]`).
@@ -48,6 +99,8 @@ struct Out {
     leaf: Vec<u32>,
     /// Its plane, `[normal, dist]`, and its bounding sphere, `[centre, radius]`.
     plane_sphere: Vec<[f64; 8]>,
+    /// The box of its winding.
+    boxes: Vec<WindingBox>,
     /// Per cluster, then one past the last: its runs in `groups` (none for small clusters).
     group_start: Vec<u32>,
     groups: Vec<Group>,
@@ -91,7 +144,12 @@ const GROUP_SLACK: f64 = 1e-9;
 /// Bytes [`Out`] takes per one-way portal (for [`super::memory_estimate`]): its entry, in a
 /// large cluster its share of a run, and its place in the sort while built; `4 (clusters + 1)`
 /// more for each of `start` and `group_start`.
-pub const OUT_BYTES_PER_PORTAL: u128 = 4 + 4 + 64 + (std::mem::size_of::<Group>() / GROUP + 1) as u128 + 4;
+pub const OUT_BYTES_PER_PORTAL: u128 = 4
+    + 4
+    + 64
+    + std::mem::size_of::<WindingBox>() as u128
+    + (std::mem::size_of::<Group>() / GROUP + 1) as u128
+    + 4;
 
 impl Out {
     fn new(g: &Graph) -> Self {
@@ -101,6 +159,7 @@ impl Out {
             portal: Vec::with_capacity(n),
             leaf: Vec::with_capacity(n),
             plane_sphere: Vec::with_capacity(n),
+            boxes: Vec::with_capacity(n),
             group_start: Vec::with_capacity(g.num_clusters() + 1),
             groups: Vec::new(),
         };
@@ -124,6 +183,7 @@ impl Out {
                 out.portal.push(t);
                 out.leaf.push(p.leaf);
                 out.plane_sphere.push([nrm.x, nrm.y, nrm.z, p.plane.dist, c.x, c.y, c.z, p.radius]);
+                out.boxes.push(WindingBox::of(g.winding(p)));
             }
             if large {
                 for run in (first..out.portal.len()).step_by(GROUP) {
@@ -234,7 +294,12 @@ fn run_order(g: &Graph, list: &mut [u32]) {
 /// whose base vis of 10,000 tiny brushes did not finish in 15 minutes.) In a cluster of more than
 /// [`GROUP_ABOVE`] portals a run refused whole by its bounds ([`Group`]) costs one test: on the
 /// 10,000 tiny brushes merged into 73 clusters, where a flood meets about all 87,010 portals,
-/// base vis took 17–20 s instead of 39–58 s, with the same rows.
+/// base vis took 17–20 s instead of 39–58 s, with the same rows. A pair the bounding spheres
+/// leave open is decided by the boxes of the two windings where they can ([`WindingBox`]: always,
+/// but within rounding margins, for rectangles along the axes), and only then by the points,
+/// which lie apart from the entries the flood reads: on the same merged room (whose portals are
+/// all such rectangles) base vis took 12.5–14.2 s instead of 17.9–24.7 s, and the whole vis 18 %
+/// less CPU, with the same rows.
 pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + Sync)) -> Mightsee {
     let n = g.portals.len();
     let nc = g.num_clusters();
@@ -256,6 +321,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
             stack.push(p.leaf);
             bits::set(entered, p.leaf as usize);
             let (pn, pd) = (p.plane.normal, p.plane.dist);
+            let p_box = WindingBox::of(g.winding(p));
             let mut met = 0u64;
             while let Some(c) = stack.pop() {
                 let c = c as usize;
@@ -263,7 +329,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
                 if runs.is_empty() {
                     let range = out.start[c] as usize..out.start[c + 1] as usize;
                     met += range.len() as u64;
-                    candidates(g, &out, pi, range, row, entered, stack);
+                    candidates(g, &out, (pi, &p_box), range, row, entered, stack);
                     continue;
                 }
                 for run in runs {
@@ -273,7 +339,7 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
                     }
                     let range = run.first as usize..run.end as usize;
                     met += range.len() as u64;
-                    candidates(g, &out, pi, range, row, entered, stack);
+                    candidates(g, &out, (pi, &p_box), range, row, entered, stack);
                 }
             }
             let owner = p.owner as usize * cluster_words;
@@ -291,13 +357,14 @@ pub fn mightsee(g: &Graph, words: usize, threads: usize, progress: &(dyn Fn() + 
     Mightsee { rows, clusters, tests: tests.into_inner() }
 }
 
-/// Tests the entries `range` of [`Out`] as candidates of portal `pi`: each one taken is set in
-/// `row`, and the cluster it leads to, if not yet `entered`, is entered and pushed on `stack`.
+/// Tests the entries `range` of [`Out`] as candidates of portal `pi` (whose winding's box is
+/// `p_box`): each one taken is set in `row`, and the cluster it leads to, if not yet `entered`,
+/// is entered and pushed on `stack`.
 #[inline]
 fn candidates(
     g: &Graph,
     out: &Out,
-    pi: usize,
+    (pi, p_box): (usize, &WindingBox),
     range: std::ops::Range<usize>,
     row: &mut [u64],
     entered: &mut [u64],
@@ -306,7 +373,8 @@ fn candidates(
     let p = &g.portals[pi];
     let (pn, pd, pc, pr) = (p.plane.normal, p.plane.dist, p.center, p.radius);
     let entries = out.plane_sphere[range.clone()].iter().zip(&out.portal[range.clone()]);
-    for ((&[nx, ny, nz, nd, x, y, z, radius], &ti), &next) in entries.zip(&out.leaf[range]) {
+    let entries = entries.zip(&out.boxes[range.clone()]);
+    for (((&[nx, ny, nz, nd, x, y, z, radius], &ti), t_box), &next) in entries.zip(&out.leaf[range]) {
         // `t` is a candidate for `p` when some point of `t` lies in front of `p` and some point of
         // `p` behind `t`, each by more than `COPLANAR_EPSILON`; the bounding spheres decide most
         // pairs (`Plane::distance` spelled out: the same operations in the same order), and
@@ -324,10 +392,20 @@ fn candidates(
         if ti == pi {
             continue;
         }
-        // The winding points only where the spheres leave it open.
-        if (d - radius > COPLANAR_EPSILON || any_in_front(g, p, &g.portals[ti]))
-            && (e + pr < -COPLANAR_EPSILON || any_behind(g, p, &g.portals[ti]))
-        {
+        // Then the boxes of the windings, and their points only where the boxes leave it open.
+        // Some point of `p` lies behind `t` by more than the epsilon when one lies above it in
+        // front of the reversed plane.
+        let in_front = d - radius > COPLANAR_EPSILON
+            || t_box
+                .any_above(pn, pd, COPLANAR_EPSILON)
+                .unwrap_or_else(|| any_in_front(g, p, &g.portals[ti]));
+        let behind = || {
+            e + pr < -COPLANAR_EPSILON
+                || p_box
+                    .any_above(-DVec3::new(nx, ny, nz), -nd, COPLANAR_EPSILON)
+                    .unwrap_or_else(|| any_behind(g, p, &g.portals[ti]))
+        };
+        if in_front && behind() {
             bits::set(row, ti);
             if !bits::get(entered, next as usize) {
                 bits::set(entered, next as usize);
@@ -414,7 +492,15 @@ mod tests {
                 bits::set(&mut entered, g.portals[pi].leaf as usize);
                 while let Some(c) = stack.pop() {
                     let range = out.start[c as usize] as usize..out.start[c as usize + 1] as usize;
-                    candidates(&g, &out, pi, range, &mut want, &mut entered, &mut stack);
+                    candidates(
+                        &g,
+                        &out,
+                        (pi, &WindingBox::of(g.winding(&g.portals[pi]))),
+                        range,
+                        &mut want,
+                        &mut entered,
+                        &mut stack,
+                    );
                 }
                 assert_eq!(&got.rows[pi * words..(pi + 1) * words], &want[..], "seed {seed}, portal {pi}");
                 let p = &g.portals[pi];
@@ -425,6 +511,85 @@ mod tests {
                     .count();
             }
             assert!(refused > 0, "seed {seed}: no run refused");
+        }
+    }
+
+    /// A winding's box decides whether some point lies in front of a plane exactly as the points
+    /// do, whenever it decides, on quads along the axes whose spheres and boxes touch planes or
+    /// miss them by 1/256 (near the origin and ten million units from it) and on quads facing any
+    /// way; and where the winding is a rectangle along the axes, it decides nine in ten of the
+    /// pairs the spheres leave open (all of them near the origin).
+    #[test]
+    fn boxes_decide_as_the_points_do() {
+        for seed in 0..4 {
+            let shift = if seed < 2 { DVec3::ZERO } else { DVec3::new(1e7, -3e6, 5e5) };
+            let g = Graph::new(&random_portals(300, 4, seed, shift));
+            let boxes: Vec<WindingBox> = g.portals.iter().map(|p| WindingBox::of(g.winding(p))).collect();
+            assert!(boxes.iter().any(|b| b.corners) && boxes.iter().any(|b| !b.corners), "seed {seed}");
+            let (mut open, mut decided) = (0, 0);
+            for (pi, p) in g.portals.iter().enumerate() {
+                for (ti, t) in g.portals.iter().enumerate().filter(|&(ti, _)| ti != pi) {
+                    let front = boxes[ti].any_above(p.plane.normal, p.plane.dist, COPLANAR_EPSILON);
+                    let behind = boxes[pi].any_above(-t.plane.normal, -t.plane.dist, COPLANAR_EPSILON);
+                    // The spheres' margins: where they leave the answer open.
+                    let (d, e) = (p.plane.distance(t.center), t.plane.distance(p.center));
+                    let sphere_open = [
+                        d - t.radius <= COPLANAR_EPSILON && d + t.radius > COPLANAR_EPSILON,
+                        e + p.radius >= -COPLANAR_EPSILON && e - p.radius < -COPLANAR_EPSILON,
+                    ];
+                    let checks = [(front, any_in_front(&g, p, t)), (behind, any_behind(&g, p, t))];
+                    let rectangle = [boxes[ti].corners, boxes[pi].corners];
+                    for (((said, truth), sphere_open), rectangle) in
+                        checks.into_iter().zip(sphere_open).zip(rectangle)
+                    {
+                        if let Some(said) = said {
+                            assert_eq!(said, truth, "seed {seed}, portals {pi} and {ti}");
+                        }
+                        let counted = sphere_open && rectangle;
+                        open += usize::from(counted);
+                        decided += usize::from(counted && said.is_some());
+                    }
+                }
+            }
+            assert!(
+                decided * 10 > open * 9,
+                "seed {seed}: boxes decided {decided} of the {open} the spheres leave open"
+            );
+        }
+    }
+
+    /// Base vis's rows are those the definition gives: the flood from each portal's cluster
+    /// through every portal some point of which lies in front of it while some point of it lies
+    /// behind that portal, tested point by point.
+    #[test]
+    fn rows_are_the_definitions() {
+        for seed in 0..4 {
+            let shift = if seed < 2 { DVec3::ZERO } else { DVec3::new(1e7, -3e6, 5e5) };
+            let g = Graph::new(&random_portals(400, 40, seed, shift));
+            let (n, words) = (g.portals.len(), bits::words(g.portals.len()));
+            let got = mightsee(&g, words, 2, &|| {});
+            for (pi, p) in g.portals.iter().enumerate() {
+                let mut want = vec![0u64; words];
+                let mut entered = vec![false; g.num_clusters()];
+                let mut stack = vec![p.leaf];
+                entered[p.leaf as usize] = true;
+                while let Some(c) = stack.pop() {
+                    for &ti in &g.cluster_portals[c as usize] {
+                        let t = &g.portals[ti as usize];
+                        if ti as usize != pi && any_in_front(&g, p, t) && any_behind(&g, p, t) {
+                            bits::set(&mut want, ti as usize);
+                            if !std::mem::replace(&mut entered[t.leaf as usize], true) {
+                                stack.push(t.leaf);
+                            }
+                        }
+                    }
+                }
+                assert_eq!(
+                    &got.rows[pi * words..(pi + 1) * words],
+                    &want[..],
+                    "seed {seed}, portal {pi} of {n}"
+                );
+            }
         }
     }
 }
