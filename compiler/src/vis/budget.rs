@@ -110,7 +110,7 @@ pub(super) fn estimate(counts: Counts, opts: &VisOptions) -> u64 {
     let row = 8 * bits::words(one_way as usize) as u128;
     let cluster_row = 8 * bits::words(nc as usize) as u128;
     let points = counts.points;
-    let graph = one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8)
+    let graph = one_way * (std::mem::size_of::<graph::OneWay>() as u128 + 32 + 8 + 4)
         + 2 * (24 + 32) * points
         + nc * 2 * 24
         + base::OUT_BYTES_PER_PORTAL * one_way

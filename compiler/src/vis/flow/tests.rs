@@ -127,3 +127,64 @@ fn a_flow_whose_culls_drop_nothing_stops_culling_with_the_same_result() {
     assert!(rows.iter().all(|r| *r == rows[0]));
     assert_eq!(bits::count(&rows[0]), 46);
 }
+
+/// Whether anything new lies beyond a target comes out the same from the target's own row and
+/// from the reversed rows of the frame's few uncovered portals, also after `might` narrowed and
+/// `vis` grew since they were listed: random rows kept in consistent pairs, frames with few and
+/// with many uncovered portals, a row length that is not a multiple of 64.
+#[test]
+fn a_target_leads_on_alike_by_its_row_and_by_the_uncovered_portals_reversed_rows() {
+    let mut rng = sightline_job::rng::SplitMix64::new(26);
+    let n = 2 * 611;
+    let words = bits::words(n);
+    let (mut few, mut many, mut leads) = (0, 0, 0);
+    for round in 0..40 {
+        let sparse = round % 2 == 0;
+        let bit_row = |rng: &mut sightline_job::rng::SplitMix64, sparse: bool| -> Vec<u64> {
+            (0..words)
+                .map(|w| {
+                    let x = match sparse {
+                        true => rng.next_u64() & rng.next_u64() & rng.next_u64() & rng.next_u64(),
+                        false => rng.next_u64() | rng.next_u64(),
+                    };
+                    x & bits::valid_mask(w, n)
+                })
+                .collect()
+        };
+        // Rows in consistent pairs: `s` in row `r` with `r ^ 1` in row `s ^ 1`, about 0.25 % full, so
+        // that a target leads on about as often as not.
+        let mut test = vec![0u64; n * words];
+        for _ in 0..n * n / 800 {
+            let (r, s) = (rng.below(n), rng.below(n));
+            bits::set(&mut test[r * words..(r + 1) * words], s);
+            bits::set(&mut test[(s ^ 1) * words..((s ^ 1) + 1) * words], r ^ 1);
+        }
+        let (lo, hi) = (rng.below(2), words - rng.below(2));
+        let mut frame = Frame { might: bit_row(&mut rng, sparse), lo, hi, ..Frame::default() };
+        for w in (0..lo).chain(hi..words) {
+            frame.might[w] = 0;
+        }
+        let mut vis = bit_row(&mut rng, sparse);
+        frame.open = (lo..hi).filter(|&w| frame.might[w] & !vis[w] != 0).collect();
+        frame.list_uncovered(&vis);
+        if frame.uncovered.is_empty() {
+            many += 1;
+        } else {
+            few += 1;
+        }
+        // After the listing, `might` only narrows and `vis` only grows.
+        for _ in 0..3 {
+            let (a, b) = (rng.below(n), rng.below(n));
+            bits::clear(&mut frame.might, a);
+            bits::set(&mut vis, b);
+        }
+        for pi in 0..n {
+            let trow = &test[pi * words..(pi + 1) * words];
+            let want = (lo..hi).any(|w| frame.might[w] & trow[w] & !vis[w] != 0);
+            assert_eq!(frame.leads_on(&test, pi, &vis), want, "round {round}, target {pi}");
+            leads += usize::from(want);
+        }
+    }
+    assert!(few > 0 && many > 0, "{few} frames listed their uncovered portals, {many} did not");
+    assert!(leads > 40 * n / 5 && leads < 40 * n * 4 / 5, "{leads} of {} targets led on", 40 * n);
+}
