@@ -300,9 +300,11 @@ impl Flow {
     }
 
     /// The portals visible through portal `base`; `test` holds per portal its final vis when done,
-    /// else its `mightsee` (`words` words per portal). Writes the result into `out`; the flow
-    /// makes `trial` beam culls before it stops culling if none of them dropped a portal (see
-    /// [`Flow::dropped`]).
+    /// else its `mightsee` (`words` words per portal), its rows kept in consistent pairs
+    /// ([`super::symmetry`]: every caller tightens them so and replaces rows only through
+    /// `symmetry::replace_row`), which [`Frame::leads_on`] relies on. Writes the result into
+    /// `out`; the flow makes `trial` beam culls before it stops culling if none of them dropped a
+    /// portal (see [`Flow::dropped`]).
     ///
     /// The clusters `seeds` knows visible through `base`, or seen by earlier flows from the
     /// cluster `base` leaves, are marked seen from the start, so branches that could only find

@@ -25,7 +25,9 @@ fn a_chain_longer_than_max_depth_stops_there_keeping_everything_it_might_see() {
     let n = 3 * MAX_FLOW_DEPTH as u32;
     let g = Graph::new(&corridor(n));
     let words = bits::words(g.portals.len());
-    let might = base::mightsee(&g, words, 1, &|| {}).rows;
+    let mut might = base::mightsee(&g, words, 1, &|| {}).rows;
+    // `Flow::run` reads rows kept in consistent pairs.
+    crate::vis::symmetry::tighten_all(&mut might, words, g.portals.len());
     let seeds = Seeds::new(g.portals.len(), g.num_clusters());
     for seeding in [false, true] {
         let mut flow = Flow::new(g.portals.len(), g.num_clusters(), 4, seeding);
@@ -44,7 +46,9 @@ fn frames_covered_by_explored_ones_are_skipped_and_rows_only_get_tighter() {
     let prt = crate::vis::tests::grid(30, 24, 7);
     let g = Graph::new(&prt);
     let words = bits::words(g.portals.len());
-    let might = base::mightsee(&g, words, 1, &|| {}).rows;
+    let mut might = base::mightsee(&g, words, 1, &|| {}).rows;
+    // `Flow::run` reads rows kept in consistent pairs.
+    crate::vis::symmetry::tighten_all(&mut might, words, g.portals.len());
     let seeds = Seeds::new(g.portals.len(), g.num_clusters());
     // The grid's flows are short: every frame that went deeper is kept.
     let flow = |keep_chains| Flow { keep_chains, ..Flow::new(g.portals.len(), g.num_clusters(), 4, false) };
@@ -113,7 +117,9 @@ fn a_flow_whose_culls_drop_nothing_stops_culling_with_the_same_result() {
     // Along a straight corridor every portal ahead is visible, so no cull drops one.
     let g = Graph::new(&corridor(48));
     let words = bits::words(g.portals.len());
-    let might = base::mightsee(&g, words, 1, &|| {}).rows;
+    let mut might = base::mightsee(&g, words, 1, &|| {}).rows;
+    // `Flow::run` reads rows kept in consistent pairs.
+    crate::vis::symmetry::tighten_all(&mut might, words, g.portals.len());
     let seeds = Seeds::new(g.portals.len(), g.num_clusters());
     let mut rows = Vec::new();
     for trial in [QUIET_TRIAL, BEAM_TRIAL, u32::MAX] {
