@@ -15,15 +15,17 @@
 //! made 0.5–0.8 chains per portal per cluster. Without that cap, a map merged into a few dozen
 //! clusters (`--coarsen`) was predicted millions of chains per portal, for 4 made. A chain is
 //! priced at [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and
-//! thread count. Merged clusters break the model both ways: on the 10,000-brush room merged to
-//! 73 clusters a chain costs about 136 µs (a frame walks its cluster's thousands of portals) and
-//! the cap still counts 18 times the chains made, so the first estimate is about 3× short there.
+//! thread count, times [`scan_factor`] of the targets a frame scans: on merged clusters
+//! (`--coarsen`) a frame tests each of its cluster's hundreds or thousands of portals, and there
+//! the cap counts 8–20 times the chains made while a chain costs tens of times an unmerged one.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
 //! How far off the first estimate is, and why no richer model or early sample did better (a
 //! flow's chains depend on how far earlier flows narrowed its row, down to the heaviest flows
-//! just before it): `docs/benchmarks.md`, sessions 21, 22 and 25.
+//! just before it): `docs/benchmarks.md`, sessions 21, 22, 25 and 27.
 
 use std::time::Instant;
+
+use super::graph::Graph;
 
 /// Chains per portal per `m^2.2 / n^0.6` (see [`chains`]): fitted over the shared maps and the
 /// heavy set whose flows visited 50,000 chains or more (28 maps, 2 threads, 2026-11-29), on which
@@ -44,14 +46,47 @@ pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
     (predicted.ceil() as u64).min(clusters as u64).saturating_add(1)
 }
 
-/// Seconds predicted for `work` chains (a sum of [`chains`]) by a run whose base vis made
-/// `base_tests` tests in `base_seconds` (0 when base vis tested nothing: then there is nothing to
-/// flow). Never lower for more work.
-pub fn flow_seconds(work: u64, base_seconds: f64, base_tests: u64) -> f64 {
+/// Targets scanned per frame at which [`scan_factor`] doubles a chain's price.
+///
+/// A frame tests each portal out of its cluster, so a chain's CPU time grows with the targets:
+/// on rooms of tiny brushes merged by `--coarsen` (AMD EPYC host, 2026-11-30) it was 20–35 µs at
+/// 200–800 targets a frame and 80–90 µs at 1,000–1,200, against 1.1–2.0 µs on unmerged maps. On
+/// the same merges the cap of [`chains`] (a portal's chains at most the clusters) counts 8–20
+/// times the chains made. Together the estimate without this factor was short by a ratio that
+/// grew with the targets: real / first flow time 0.84–1.11 at 174–272 targets a frame, 1.67,
+/// 2.57, 3.36 and 3.6 at 533, 798, 994 and 1,192 (tiny_1000, tiny_3000, tiny_5000 and
+/// tiny_10000 merged into 63–618 clusters); with it, 0.63–1.23 (`docs/benchmarks.md`, session
+/// 27). Unmerged maps scan 3–11 targets a frame: a factor of 1.01–1.02, inside the fit of
+/// [`CHAIN_PER_BASE_TEST`].
+pub const SCAN_TARGETS_UNIT: f64 = 500.0;
+
+/// The targets a frame scans in `g`, on average: the one-way portals per cluster (a frame
+/// tests each portal out of its cluster). 0 without clusters. The plain mean, not one weighed by
+/// how many portals lead into each cluster: ericw-tools' arenas have one open cluster of
+/// hundreds of portals, which puts that weighed mean at 110–180 there, yet their chains cost
+/// what other unmerged maps' do.
+pub fn targets_per_frame(g: &Graph) -> f64 {
+    match g.num_clusters() {
+        0 => 0.0,
+        nc => g.portals.len() as f64 / nc as f64,
+    }
+}
+
+/// How many times an unmerged chain's price a chain costs whose frames scan `targets` targets
+/// each ([`targets_per_frame`]): `1 + targets / SCAN_TARGETS_UNIT`. At least 1, monotone.
+pub fn scan_factor(targets: f64) -> f64 {
+    1.0 + targets.max(0.0) / SCAN_TARGETS_UNIT
+}
+
+/// Seconds predicted for `work` chains (a sum of [`chains`]) whose frames scan `targets` targets
+/// each ([`targets_per_frame`]) by a run whose base vis made `base_tests` tests in
+/// `base_seconds` (0 when base vis tested nothing: then there is nothing to flow). Never lower
+/// for more work or more targets.
+pub fn flow_seconds(work: u64, targets: f64, base_seconds: f64, base_tests: u64) -> f64 {
     if base_tests == 0 {
         return 0.0;
     }
-    CHAIN_PER_BASE_TEST * base_seconds / base_tests as f64 * work as f64
+    CHAIN_PER_BASE_TEST * scan_factor(targets) * base_seconds / base_tests as f64 * work as f64
 }
 
 /// A portal's share of the flow's progress ([`progress_steps`]): its predicted [`chains`] (for a
@@ -171,21 +206,36 @@ mod tests {
             let n = len + 1 + (rng.next_u64() % 100_000) as usize;
             let mut counts: Vec<u64> = (0..len).map(|_| rng.next_u64() % n as u64).collect();
             let before = flow_work(counts.iter().copied(), n);
-            let seconds = flow_seconds(before, 0.5, 1_000);
+            let seconds = flow_seconds(before, 5.0, 0.5, 1_000);
             if len > 0 {
                 let i = (rng.next_u64() % len as u64) as usize;
                 counts[i] += rng.next_u64() % 1_000;
                 let raised = flow_work(counts.iter().copied(), n);
                 assert!(raised >= before, "{raised} < {before}");
-                assert!(flow_seconds(raised, 0.5, 1_000) >= seconds);
+                assert!(flow_seconds(raised, 5.0, 0.5, 1_000) >= seconds);
             }
             counts.push(rng.next_u64() % n as u64);
             let added = flow_work(counts.iter().copied(), n);
             assert!(added > before, "a portal adds at least 1");
-            assert!(flow_seconds(added, 0.5, 1_000) > seconds);
+            assert!(flow_seconds(added, 5.0, 0.5, 1_000) > seconds);
         }
         assert_eq!(flow_work([u64::MAX, u64::MAX], 1), u64::MAX, "no overflow");
-        assert_eq!(flow_seconds(5, 1.0, 0), 0.0, "nothing to flow without base tests");
+        assert_eq!(flow_seconds(5, 5.0, 1.0, 0), 0.0, "nothing to flow without base tests");
+    }
+
+    #[test]
+    fn scanning_more_targets_never_lowers_the_estimate() {
+        assert_eq!(scan_factor(0.0), 1.0);
+        assert_eq!(scan_factor(-3.0), 1.0, "no discount");
+        assert!((scan_factor(SCAN_TARGETS_UNIT) - 2.0).abs() < 1e-12);
+        let mut last = 0.0;
+        for t in (0..5_000).map(f64::from) {
+            let seconds = flow_seconds(1_000, t, 0.5, 1_000);
+            assert!(seconds >= last, "{t}: {seconds} < {last}");
+            last = seconds;
+        }
+        // An unmerged map's few targets move the estimate by a few percent at most.
+        assert!(flow_seconds(1_000, 11.0, 0.5, 1_000) < 1.03 * flow_seconds(1_000, 0.0, 0.5, 1_000));
     }
 
     #[test]

@@ -102,8 +102,13 @@ pub(super) fn flow_all(
     // The estimate, for the portals left.
     stats.flow_estimate_work =
         counts[done..].iter().map(|&m| estimate::chains(m, n, nc)).fold(0, |a, w| a.saturating_add(w));
-    stats.flow_estimate_seconds =
-        estimate::flow_seconds(stats.flow_estimate_work, stats.base_seconds, stats.base_tests);
+    stats.flow_estimate_targets = estimate::targets_per_frame(g);
+    stats.flow_estimate_seconds = estimate::flow_seconds(
+        stats.flow_estimate_work,
+        stats.flow_estimate_targets,
+        stats.base_seconds,
+        stats.base_tests,
+    );
     if stats.flow_estimate_seconds >= estimate::SAY_SECONDS {
         progress.note(&format!(
             "vis flow: estimated {} for {} portals (from base vis's speed on this run)",

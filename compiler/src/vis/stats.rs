@@ -45,6 +45,11 @@ pub struct VisStats {
     /// The flow's predicted chains (the sum of [`estimate::chains`](super::estimate::chains) over
     /// the portals left to flow, from their rows before the flow), 0 without a flow.
     pub flow_estimate_work: u64,
+    /// The targets a frame scans on average, the one-way portals per cluster
+    /// ([`estimate::targets_per_frame`](super::estimate::targets_per_frame)): a few on unmerged
+    /// maps, hundreds or thousands on clusters merged by `--coarsen`, where a chain costs that
+    /// much more ([`estimate::scan_factor`](super::estimate::scan_factor)); 0 without a flow.
+    pub flow_estimate_targets: f64,
     /// The first estimate of `flow_seconds`, made before the flow from base vis's speed
     /// ([`estimate::flow_seconds`](super::estimate::flow_seconds)); its accuracy is measured in
     /// `docs/benchmarks.md`.

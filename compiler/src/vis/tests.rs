@@ -692,6 +692,10 @@ fn coarsened_generated_rooms_keep_every_pair_and_report_their_looseness() {
         let fine = run(&prt, &opts, &none()).expect("vis");
         assert!(fine.stats.base_tests > 0 && fine.stats.flow_estimate_work >= prt.portals.len() as u64);
         assert!(fine.stats.flow_estimate_seconds > 0.0, "{file}: {:?}", fine.stats);
+        // A frame scans the portals out of its cluster: two one-way portals a line.
+        let targets =
+            (2 * (prt.portals.len() - fine.stats.dropped_portals)) as f64 / f64::from(prt.num_clusters);
+        assert_eq!(fine.stats.flow_estimate_targets, targets, "{file}: {:?}", fine.stats);
         let limit = work_estimate(&prt, &opts) / 4;
         let coarse = run(&prt, &VisOptions { max_work: Some(limit), coarsen: true, ..opts }, &none())
             .expect("coarsened");

@@ -125,6 +125,8 @@ fn json_carries_the_flow_estimate_and_max_time_coarsens_with_a_looseness_report(
     let v = &fine["vis"];
     assert!(v["base_tests"].as_u64().expect("base_tests") > 0, "{v}");
     assert!(v["flow_estimate_work"].as_u64().expect("flow_estimate_work") > 0, "{v}");
+    // One-way portals per cluster: the generated rooms have several a cluster.
+    assert!(v["flow_estimate_targets"].as_f64().expect("flow_estimate_targets") >= 1.0, "{v}");
     assert!(v["flow_estimate_seconds"].as_f64().expect("flow_estimate_seconds") > 0.0, "{v}");
     assert!(v["flow_seconds"].as_f64().expect("flow_seconds") > 0.0, "{v}");
     let prt = dir.join("rooms.prt");
@@ -132,6 +134,7 @@ fn json_carries_the_flow_estimate_and_max_time_coarsens_with_a_looseness_report(
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     let vis = stdout_json(&o);
     assert_eq!(vis["vis"]["flow_estimate_work"], v["flow_estimate_work"], "one estimate for one input");
+    assert_eq!(vis["vis"]["flow_estimate_targets"], v["flow_estimate_targets"]);
     let need = v["work_estimate"].as_u64().expect("work_estimate");
     // A budget a tenth of the estimate's time at the fixed rate.
     let budget = format!("{}s", need as f64 / 1e8 / 10.0);
