@@ -55,7 +55,7 @@ pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
 /// times the chains made. Together the estimate without this factor was short by a ratio that
 /// grew with the targets: real / first flow time 0.84–1.11 at 174–272 targets a frame, 1.67,
 /// 2.57, 3.36 and 3.6 at 533, 798, 994 and 1,192 (tiny_1000, tiny_3000, tiny_5000 and
-/// tiny_10000 merged into 63–618 clusters); with it, 0.63–1.23 (`docs/benchmarks.md`, session
+/// tiny_10000 merged into 63–618 clusters); with it, 0.51–1.23 (`docs/benchmarks.md`, session
 /// 27). Unmerged maps scan 3–11 targets a frame: a factor of 1.01–1.02, inside the fit of
 /// [`CHAIN_PER_BASE_TEST`].
 pub const SCAN_TARGETS_UNIT: f64 = 500.0;
