@@ -56,7 +56,9 @@ pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
 /// grew with the targets: real / first flow time 0.84–1.11 at 174–272 targets a frame, 1.67,
 /// 2.57, 3.36 and 3.6 at 533, 798, 994 and 1,192 (tiny_1000, tiny_3000, tiny_5000 and
 /// tiny_10000 merged into 63–618 clusters); with it, 0.51–1.23 (`docs/benchmarks.md`, session
-/// 27). Unmerged maps scan 3–11 targets a frame: a factor of 1.01–1.02, inside the fit of
+/// 27). Not on every merge: tiny_10000 merged into 612 clusters made ten times the chains of
+/// the others, about half the capped count, as unmerged open rooms do, and is 4.5 short with
+/// it. Unmerged maps scan 3–11 targets a frame: a factor of 1.01–1.02, inside the fit of
 /// [`CHAIN_PER_BASE_TEST`].
 pub const SCAN_TARGETS_UNIT: f64 = 500.0;
 
