@@ -8,9 +8,9 @@
 //!    big open volumes fast and keeps the tree balanced;
 //! 3. otherwise every unused side plane that cuts the volume is scored, visible sides (those that
 //!    kept a face after CSG) before invisible ones, structural before detail, as qbsp3 does:
-//!    `5·facing − 20·splits − |front − back|`, plus 5 for axial planes (qbsp3 weighs splits by 5;
-//!    20 gives E1M1 1,354 vis leaves and 3,676 portals against 1,582 and 4,247); the highest score wins and
-//!    the first one found wins ties (brush order, side order: deterministic).
+//!    `5·facing − SPLIT_WEIGHT·splits − |front − back|`, plus 5 for axial planes; the highest
+//!    score wins and the first one found wins ties (brush order, side order: deterministic). See
+//!    [`SPLIT_WEIGHT`] for the weight.
 //!
 //! A plane "cuts" a volume when corners of the volume lie more than [`ON_EPSILON`] on both sides.
 //! Detail brushes take part only once no structural side is left in a node ("detail pass"): the
@@ -32,6 +32,18 @@ use crate::contents::priority;
 /// default) building is a third faster but E1M1 gets 6 % more leaves and portals, which costs far
 /// more in vis than it saves here, so only huge volumes get midsplits.
 pub const MAX_NODE_SIZE: f64 = 4096.0;
+
+/// The score a splitter loses per brush it splits (see the module docs); qbsp3 and q3map2 use 5.
+///
+/// Fewer splits mean fewer, larger leaves, and on open maps longer sight lines through them: the
+/// flow's chains there grow with the weight. Our compiles with 10 against 20 (2 threads, AMD EPYC
+/// host, 2026-11-30): chains ×0.58 on the generated `city_36` (334 M → 195 M), ×0.70 on
+/// `city_28`, ×0.75 on `city_20`, ×0.86 on `arena_32`, ×0.87 on `terrain_40`, with the faces a
+/// PVS walk submits from random poses (`sightline bench`) 0.96–1.00 times as many; on id's and
+/// LibreQuake's maps, whose flows take under a second, leaves +0–11 %, chains ×0.87–1.50 and
+/// faces submitted ×0.91–1.11 (over the 23 maps, ×0.99 in geometric mean). 5 gives 10 % more
+/// leaves everywhere; 20 gave E1M1 2 % fewer (`docs/benchmarks.md`, session 28).
+pub const SPLIT_WEIGHT: i64 = 10;
 
 /// Below this many brushes a node's children are built on the current thread.
 const PARALLEL_MIN_BRUSHES: usize = 48;
@@ -387,7 +399,7 @@ fn choose_among(
             }
         }
         let axial = if plane.kind().is_axial() { 5 } else { 0 };
-        5 * facing - 20 * splits - (front - back).abs() + axial
+        5 * facing - SPLIT_WEIGHT * splits - (front - back).abs() + axial
     };
     let scores: Vec<i64> = if candidates.len() * brushes.len() > 20_000 {
         candidates.par_iter().map(score).collect()
