@@ -37,8 +37,9 @@ pub const MAX_NODE_SIZE: f64 = 4096.0;
 ///
 /// Fewer splits mean fewer, larger leaves, and on open maps longer sight lines through them: the
 /// flow's chains there grow with the weight. Our compiles with 10 against 20 (2 threads, AMD EPYC
-/// host, 2026-11-30): chains ×0.58 on the generated `city_36` (334 M → 195 M), ×0.70 on
-/// `city_28`, ×0.75 on `city_20`, ×0.86 on `arena_32`, ×0.87 on `terrain_40`, with the faces a
+/// host, 2026-11-30, before `vis::explored` forgot when full): chains ×0.58 on the generated
+/// `city_36` (334 M → 195 M), ×0.70 on `city_28`, ×0.75 on `city_20`, ×0.86 on `arena_32`,
+/// ×0.87 on `terrain_40`, with the faces a
 /// PVS walk submits from random poses (`sightline bench`) 0.96–1.00 times as many; on id's and
 /// LibreQuake's maps, whose flows take under a second, leaves +0–11 %, chains ×0.87–1.50 and
 /// faces submitted ×0.91–1.11 (over the 23 maps, ×0.99 in geometric mean). 5 gives 10 % more
