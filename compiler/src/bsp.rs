@@ -30,7 +30,10 @@ use crate::contents::priority;
 
 /// Volumes longer than this on an axis are split near their middle first. At 1024 (qbsp's
 /// default) building is a third faster but E1M1 gets 6 % more leaves and portals, which costs far
-/// more in vis than it saves here, so only huge volumes get midsplits.
+/// more in vis than it saves here, so only huge volumes get midsplits. Without any, the generated
+/// cities' flows take half the chains (the tree of `city_20` is then ericw-tools'), but a PVS
+/// walk submits 1.9–2.0 times the faces on them and on `arena_32`: the midsplits cut open sky
+/// and halls into cells that see less (session 28, `docs/benchmarks.md`).
 pub const MAX_NODE_SIZE: f64 = 4096.0;
 
 /// The score a splitter loses per brush it splits (see the module docs); qbsp3 and q3map2 use 5.
@@ -39,11 +42,12 @@ pub const MAX_NODE_SIZE: f64 = 4096.0;
 /// flow's chains there grow with the weight. Our compiles with 10 against 20 (2 threads, AMD EPYC
 /// host, 2026-11-30, before `vis::explored` forgot when full): chains ×0.58 on the generated
 /// `city_36` (334 M → 195 M), ×0.70 on `city_28`, ×0.75 on `city_20`, ×0.86 on `arena_32`,
-/// ×0.87 on `terrain_40`, with the faces a
-/// PVS walk submits from random poses (`sightline bench`) 0.96–1.00 times as many; on id's and
-/// LibreQuake's maps, whose flows take under a second, leaves +0–11 %, chains ×0.87–1.50 and
-/// faces submitted ×0.91–1.11 (over the 23 maps, ×0.99 in geometric mean). 5 gives 10 % more
-/// leaves everywhere; 20 gave E1M1 2 % fewer (`docs/benchmarks.md`, session 28).
+/// ×0.87 on `terrain_40`, with the faces a PVS walk submits from random poses (`sightline
+/// bench`) 0.96–1.00 times as many; on id's and LibreQuake's maps, whose flows take under a
+/// second, leaves +0–11 %, chains ×0.87–1.50 and faces submitted ×0.91–1.11 (over the 23 maps,
+/// ×0.99 in geometric mean). 5 gives 10 % more leaves everywhere; 20 gave E1M1 2 % fewer
+/// (`docs/benchmarks.md`, session 28). Dropping the midsplit instead halves the chains on the
+/// cities but doubles the faces submitted: see [`MAX_NODE_SIZE`].
 pub const SPLIT_WEIGHT: i64 = 10;
 
 /// Below this many brushes a node's children are built on the current thread.
