@@ -6,61 +6,95 @@
 //!
 //! # The model
 //! The flow's cost is its chains (recursive calls, one portal deeper each): a chain costs about
-//! the same anywhere (1.1–2.0 µs of CPU per flow on the shared and the heavy maps alike on an AMD
-//! EPYC host, 2026-11-29), while the chains per portal vary by four orders of magnitude. A portal that might
-//! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^2.2 / `n`^0.6 chains
-//! ([`chains`]): on open maps the late portals find few branches cut by seeds or narrowed rows,
-//! so chains grow faster than `m`, and longer rows narrow more. But never more than the clusters
-//! there are: a chain goes on only while something beyond it is new, and the open maps' flows
-//! made 0.5–0.8 chains per portal per cluster. Without that cap, a map merged into a few dozen
-//! clusters (`--coarsen`) was predicted millions of chains per portal, for 4 made. A chain is
-//! priced at [`CHAIN_PER_BASE_TEST`] base vis tests of this very run, so on this machine and
-//! thread count, times [`scan_factor`] of the targets a frame scans: on merged clusters
-//! (`--coarsen`) a frame tests each of its cluster's hundreds or thousands of portals, and there
-//! the cap counts 8–20 times the chains made while a chain costs tens of times an unmerged one.
+//! the same anywhere (1.3–3.4 µs of CPU on the shared and the heavy maps alike on an AMD EPYC
+//! host, 2026-11-30), while the chains per portal vary by four orders of magnitude. A portal that might
+//! see `m` of `n` one-way portals visits about [`CHAINS_SCALE`] × `m`^[`MIGHTSEE_EXPONENT`] /
+//! `n`^[`PORTALS_EXPONENT`] chains ([`chains`]): on open maps the late portals find few branches
+//! cut by seeds or narrowed rows, so chains grow faster than `m`, and longer rows narrow more. But
+//! never more than about the clusters there are: a chain goes on only while something beyond it
+//! is new. Without that cap, a map merged into a few dozen clusters (`--coarsen`) was predicted
+//! millions of chains per portal, for 4 made. The cap is lower where a cluster has many portals
+//! ([`CAP_TARGETS_EXPONENT`]). A chain is priced at [`CHAIN_PER_BASE_TEST`] base vis tests of this
+//! very run, so on this machine and thread count, times [`scan_factor`] of the targets a frame
+//! scans: on merged clusters a frame tests each of its cluster's hundreds or thousands of
+//! portals, and a chain costs tens of times an unmerged one.
 //! The refinement tracks progress by a flatter weight ([`progress_weight`]).
 //! How far off the first estimate is, and why no richer model or early sample did better (a
 //! flow's chains depend on how far earlier flows narrowed its row, down to the heaviest flows
-//! just before it): `docs/benchmarks.md`, sessions 21, 22, 25 and 27.
+//! just before it): `docs/benchmarks.md`, sessions 21, 22, 25, 27 and 29.
 
 use std::time::Instant;
 
 use super::graph::Graph;
 
-/// Chains per portal per `m^2.2 / n^0.6` (see [`chains`]): fitted over the shared maps and the
-/// heavy set whose flows visited 50,000 chains or more (28 maps, 2 threads, 2026-11-29), on which
-/// real / predicted chains was 0.49–2.05.
-pub const CHAINS_SCALE: f64 = 0.0163;
+/// Chains per portal per `m^MIGHTSEE_EXPONENT / n^PORTALS_EXPONENT` (see [`chains`]).
+///
+/// The three constants and [`CHAIN_PER_BASE_TEST`] were fitted together, on the real flow time,
+/// over the 40 portal files whose flow took 0.05 s or more (id's and LibreQuake's maps from
+/// ericw-tools, SDHLT, q2tools and q3map2; the heavy set from ericw-tools and from us; 2 threads,
+/// AMD EPYC host, 2026-11-30): real / first estimate 0.50–1.71 on all of them (two runs each),
+/// against 0.30–2.20 with the model before (`m`^2.2 / `n`^0.6, [`PROGRESS_CHAINS_SCALE`]).
+/// Fitted without the map in question, 0.38–2.13: the 1,000-brush room, where every leaf sees
+/// every other and the clusters' cap decides, is the one the others do not foretell
+/// (`docs/benchmarks.md`, session 29).
+pub const CHAINS_SCALE: f64 = 0.000175;
 
-/// Wall time of a chain in wall time of a base vis test: the geometric mean over the same maps
-/// (their own ratios 0.3–2.0 times it).
-pub const CHAIN_PER_BASE_TEST: f64 = 160.0;
+/// How a portal's chains grow with its `mightsee` count ([`chains`]).
+pub const MIGHTSEE_EXPONENT: f64 = 2.7;
+
+/// How a portal's chains shrink with the map's one-way portals at the same `mightsee`
+/// ([`chains`]).
+pub const PORTALS_EXPONENT: f64 = 0.55;
+
+/// Wall time of a chain in wall time of a base vis test, fitted with [`CHAINS_SCALE`]: only
+/// their product is measured. A map's own chain costs 54–195 base tests, more on longer rows,
+/// and the model's count is 0.3–1.4 times the chains made (2026-11-30).
+pub const CHAIN_PER_BASE_TEST: f64 = 205.0;
+
+/// The targets a frame scans on an unmerged map, about (3.8–6.0 one-way portals per cluster on
+/// the shared and the heavy maps): where [`chains`] caps a portal at the clusters exactly.
+pub const CAP_TARGETS: f64 = 5.5;
+
+/// How the cap of [`chains`] shrinks with the targets a frame scans `t`
+/// ([`targets_per_frame`]): the clusters times `(t / CAP_TARGETS)^-CAP_TARGETS_EXPONENT`. A
+/// cluster of many portals shows a chain many at once, so its rows fill in fewer chains: the
+/// 1,000-brush room (11 targets) made 0.55 chains per one-way portal per cluster where the open
+/// maps of 5–6 targets made 0.3–1.3, and rooms merged by `--coarsen` (170–1,200 targets)
+/// 0.05–0.13. Fitted with [`SCAN_TARGETS_UNIT`] on ten such merges (session 29); unmerged
+/// maps' caps move by 0.97–1.12 times, the 1,000-brush room's by 0.81.
+pub const CAP_TARGETS_EXPONENT: f64 = 0.3;
 
 /// The predicted chains of a portal that might see `mightsee` of `portals` one-way portals, in a
-/// map of `clusters` clusters: the model's count capped at `clusters`, plus 1 so every portal
-/// counts. Monotone in `mightsee`.
+/// map of `clusters` clusters: the model's count rounded up, capped at about `clusters`
+/// ([`CAP_TARGETS_EXPONENT`]), plus 1 so every portal counts. Monotone in `mightsee`.
 pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
-    let m = mightsee as f64;
-    let predicted = CHAINS_SCALE * m.powf(2.2) / (portals.max(1) as f64).powf(0.6);
-    // `as` saturates: a huge prediction stays finite.
-    (predicted.ceil() as u64).min(clusters as u64).saturating_add(1)
+    let n = portals.max(1) as f64;
+    let predicted = CHAINS_SCALE * (mightsee as f64).powf(MIGHTSEE_EXPONENT) / n.powf(PORTALS_EXPONENT);
+    capped(predicted, portals, clusters)
+}
+
+/// A portal's model count of chains `predicted`, in a map of `portals` one-way portals and
+/// `clusters` clusters, rounded up and capped at about `clusters` ([`CAP_TARGETS_EXPONENT`]),
+/// plus 1 so every portal counts. Monotone in `predicted`.
+fn capped(predicted: f64, portals: usize, clusters: usize) -> u64 {
+    let targets = portals.max(1) as f64 / clusters.max(1) as f64;
+    let cap = clusters as f64 * (targets / CAP_TARGETS).powf(-CAP_TARGETS_EXPONENT);
+    // `as` saturates: a huge prediction or cap stays finite.
+    (predicted.ceil().min(cap.floor()) as u64).saturating_add(1)
 }
 
 /// Targets scanned per frame at which [`scan_factor`] doubles a chain's price.
 ///
 /// A frame tests each portal out of its cluster, so a chain's CPU time grows with the targets:
-/// on rooms of tiny brushes merged by `--coarsen` (AMD EPYC host, 2026-11-30) it was 20–35 µs at
-/// 200–800 targets a frame and 80–90 µs at 1,000–1,200, against 1.1–2.0 µs on unmerged maps. On
-/// the same merges the cap of [`chains`] (a portal's chains at most the clusters) counts 8–20
-/// times the chains made. Together the estimate without this factor was short by a ratio that
-/// grew with the targets: real / first flow time 0.84–1.11 at 174–272 targets a frame, 1.67,
-/// 2.57, 3.36 and 3.6 at 533, 798, 994 and 1,192 (tiny_1000, tiny_3000, tiny_5000 and
-/// tiny_10000 merged into 63–618 clusters); with it, 0.51–1.23 (`docs/benchmarks.md`, session
-/// 27). Not on every merge: tiny_10000 merged into 612 clusters made ten times the chains of
-/// the others, about half the capped count, as unmerged open rooms do, and is 4.5 short with
-/// it. Unmerged maps scan 3–11 targets a frame: a factor of 1.01–1.02, inside the fit of
-/// [`CHAIN_PER_BASE_TEST`].
-pub const SCAN_TARGETS_UNIT: f64 = 500.0;
+/// on rooms of tiny brushes merged by `--coarsen` (AMD EPYC host, 2026-11-30) it was 10–35 µs at
+/// 170–800 targets a frame and 60–90 µs at 1,000–1,200, against 1.1–3.4 µs on unmerged maps.
+/// Fitted with [`CAP_TARGETS_EXPONENT`] on tiny_1000, tiny_3000, tiny_5000 and tiny_10000 merged
+/// into 63–618 clusters (ten merges, 170–1,200 targets a frame): real / first flow time
+/// 0.68–1.38 (`docs/benchmarks.md`, session 29). Not on every merge: tiny_10000 merged into 612
+/// clusters made ten times the chains of the others, as unmerged open rooms do, and is about six
+/// times short. Unmerged maps scan 3.8–11 targets a frame: a factor of 1.03–1.08, inside the fit
+/// of [`CHAIN_PER_BASE_TEST`].
+pub const SCAN_TARGETS_UNIT: f64 = 140.0;
 
 /// The targets a frame scans in `g`, on average: the one-way portals per cluster (a frame
 /// tests each portal out of its cluster). 0 without clusters. The plain mean, not one weighed by
@@ -91,18 +125,32 @@ pub fn flow_seconds(work: u64, targets: f64, base_seconds: f64, base_tests: u64)
     CHAIN_PER_BASE_TEST * scan_factor(targets) * base_seconds / base_tests as f64 * work as f64
 }
 
-/// A portal's share of the flow's progress ([`progress_steps`]): its predicted [`chains`] (for a
-/// map of `portals` one-way portals and `clusters` clusters) to the power [`PROGRESS_EXPONENT`],
-/// in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for portals whose chains reach
+/// A portal's share of the flow's progress ([`progress_steps`]): its chains by the shape model
+/// ([`PROGRESS_CHAINS_SCALE`] × `m`^[`PROGRESS_MIGHTSEE_EXPONENT`] / `n`^0.6, capped as in
+/// [`chains`], for a map of `portals` one-way portals and `clusters` clusters) to the power
+/// [`PROGRESS_EXPONENT`], in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for portals whose chains reach
 /// the clusters' cap, as on a map merged into a few clusters, whose early flows cost as much as
 /// its late ones.
 pub fn progress_weight(mightsee: u64, portals: usize, clusters: usize) -> u64 {
+    let n = portals.max(1) as f64;
+    let shape = PROGRESS_CHAINS_SCALE * (mightsee as f64).powf(PROGRESS_MIGHTSEE_EXPONENT) / n.powf(0.6);
     // `as` saturates: a huge weight stays finite.
-    ((chains(mightsee, portals, clusters) as f64).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
+    ((capped(shape, portals, clusters) as f64).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
 }
 
-/// How a portal's progress weight grows with its predicted chains ([`progress_weight`]): within
-/// one map a flow's time grows more slowly than the chains the model fits across maps. Per-flow
+/// The progress weights' model of a portal's chains ([`progress_weight`]), the first estimate's
+/// before session 29: its count (fitted to the chains made, real / predicted 0.49–2.05 over 28
+/// maps) keeps the relative cost of one map's portals, cheap ones included, which the replay of
+/// [`PROGRESS_EXPONENT`] measured. [`chains`] is fitted to the flow's total time across maps
+/// instead, and undercounts cheap portals: with its weights the estimate refined at a tenth fell
+/// to an eighth of the real time on id's dm2 (session 29).
+pub const PROGRESS_CHAINS_SCALE: f64 = 0.0163;
+
+/// How the progress weights' chains grow with `mightsee` ([`PROGRESS_CHAINS_SCALE`]).
+pub const PROGRESS_MIGHTSEE_EXPONENT: f64 = 2.2;
+
+/// How a portal's progress weight grows with its chains by the shape model
+/// ([`progress_weight`]): within one map a flow's time grows more slowly than its chains. Per-flow
 /// times of 36 maps (the shared ones and the heavy set, 2026-11-29) replayed through [`Refine`]
 /// gave, as the worst ratio either way between the real flow time and the estimate refined at
 /// 10 % of the elapsed time, 1.70 with this exponent (0.45: 1.81, 0.55: 2.07), 2.16 with
@@ -236,8 +284,8 @@ mod tests {
             assert!(seconds >= last, "{t}: {seconds} < {last}");
             last = seconds;
         }
-        // An unmerged map's few targets move the estimate by a few percent at most.
-        assert!(flow_seconds(1_000, 11.0, 0.5, 1_000) < 1.03 * flow_seconds(1_000, 0.0, 0.5, 1_000));
+        // An unmerged map's few targets move the estimate by under a tenth.
+        assert!(flow_seconds(1_000, 11.0, 0.5, 1_000) < 1.09 * flow_seconds(1_000, 0.0, 0.5, 1_000));
     }
 
     #[test]
@@ -248,7 +296,13 @@ mod tests {
         assert_eq!(chains(0, 0, 0), 1);
         // A merged map: every portal might see every other, but there are 73 clusters.
         assert!(chains(87_000, 87_000, many) > 1_000_000);
-        assert_eq!(chains(87_000, 87_000, 73), 74);
+        // 1,192 targets a frame: the cap is a fifth of the clusters.
+        assert_eq!(chains(87_000, 87_000, 73), 15);
+        // About 5.5 targets a frame (an unmerged map): the cap is the clusters.
+        assert_eq!(chains(5_500, 5_500, 1_000), 1_001);
+        // Clusters of more portals cap lower: 11 targets a frame, as in the 1,000-brush room.
+        let room = chains(48_766, 48_766, 4_395);
+        assert!((3_500..4_395).contains(&room), "{room}");
         assert!((0..100_000).step_by(997).all(|m| chains(m, 87_000, 73) <= chains(m + 1, 87_000, 73)));
     }
 
