@@ -91,7 +91,7 @@ fn capped(predicted: f64, portals: usize, clusters: usize) -> u64 {
 /// Fitted with [`CAP_TARGETS_EXPONENT`] on tiny_1000, tiny_3000, tiny_5000 and tiny_10000 merged
 /// into 63–618 clusters (ten merges, 170–1,200 targets a frame): real / first flow time
 /// 0.68–1.38 (`docs/benchmarks.md`, session 29). Not on every merge: tiny_10000 merged into 612
-/// clusters made ten times the chains of the others, as unmerged open rooms do, and is about six
+/// clusters made ten times the chains of the others, as unmerged open rooms do, and is 4.4
 /// times short. Unmerged maps scan 3.8–11 targets a frame: a factor of 1.03–1.08, inside the fit
 /// of [`CHAIN_PER_BASE_TEST`].
 pub const SCAN_TARGETS_UNIT: f64 = 140.0;
