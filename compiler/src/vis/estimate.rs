@@ -128,9 +128,9 @@ pub fn flow_seconds(work: u64, targets: f64, base_seconds: f64, base_tests: u64)
 /// A portal's share of the flow's progress ([`progress_steps`]): its chains by the shape model
 /// ([`PROGRESS_CHAINS_SCALE`] × `m`^[`PROGRESS_MIGHTSEE_EXPONENT`] / `n`^0.6, capped as in
 /// [`chains`], for a map of `portals` one-way portals and `clusters` clusters) to the power
-/// [`PROGRESS_EXPONENT`], in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for portals whose chains reach
-/// the clusters' cap, as on a map merged into a few clusters, whose early flows cost as much as
-/// its late ones.
+/// [`PROGRESS_EXPONENT`], in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for
+/// portals whose chains reach the clusters' cap, as on a map merged into a few clusters, whose
+/// early flows cost as much as its late ones.
 pub fn progress_weight(mightsee: u64, portals: usize, clusters: usize) -> u64 {
     let n = portals.max(1) as f64;
     let shape = PROGRESS_CHAINS_SCALE * (mightsee as f64).powf(PROGRESS_MIGHTSEE_EXPONENT) / n.powf(0.6);
@@ -139,7 +139,7 @@ pub fn progress_weight(mightsee: u64, portals: usize, clusters: usize) -> u64 {
 }
 
 /// The progress weights' model of a portal's chains ([`progress_weight`]), the first estimate's
-/// before session 29: its count (fitted to the chains made, real / predicted 0.49–2.05 over 28
+/// model before session 29: its count (fitted to the chains made, real / predicted 0.49–2.05 over 28
 /// maps) keeps the relative cost of one map's portals, cheap ones included, which the replay of
 /// [`PROGRESS_EXPONENT`] measured. [`chains`] is fitted to the flow's total time across maps
 /// instead, and undercounts cheap portals: with its weights the estimate refined at a tenth fell
