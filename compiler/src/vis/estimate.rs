@@ -68,19 +68,30 @@ pub const CAP_TARGETS_EXPONENT: f64 = 0.3;
 /// map of `clusters` clusters: the model's count rounded up, capped at about `clusters`
 /// ([`CAP_TARGETS_EXPONENT`]), plus 1 so every portal counts. Monotone in `mightsee`.
 pub fn chains(mightsee: u64, portals: usize, clusters: usize) -> u64 {
-    let n = portals.max(1) as f64;
-    let predicted = CHAINS_SCALE * (mightsee as f64).powf(MIGHTSEE_EXPONENT) / n.powf(PORTALS_EXPONENT);
-    capped(predicted, portals, clusters)
+    let model = Model { scale: CHAINS_SCALE, mightsee: MIGHTSEE_EXPONENT, portals: PORTALS_EXPONENT };
+    model.capped(mightsee, portals, clusters)
 }
 
-/// A portal's model count of chains `predicted`, in a map of `portals` one-way portals and
-/// `clusters` clusters, rounded up and capped at about `clusters` ([`CAP_TARGETS_EXPONENT`]),
-/// plus 1 so every portal counts. Monotone in `predicted`.
-fn capped(predicted: f64, portals: usize, clusters: usize) -> u64 {
-    let targets = portals.max(1) as f64 / clusters.max(1) as f64;
-    let cap = clusters as f64 * (targets / CAP_TARGETS).powf(-CAP_TARGETS_EXPONENT);
-    // `as` saturates: a huge prediction or cap stays finite.
-    (predicted.ceil().min(cap.floor()) as u64).saturating_add(1)
+/// A count of a portal's chains: `scale` × `m`^`mightsee` / `n`^`portals` for a portal that
+/// might see `m` of `n` one-way portals.
+struct Model {
+    scale: f64,
+    mightsee: f64,
+    portals: f64,
+}
+
+impl Model {
+    /// The count for `mightsee` of `portals` one-way portals in a map of `clusters` clusters,
+    /// rounded up and capped at about `clusters` ([`CAP_TARGETS_EXPONENT`]), plus 1 so every
+    /// portal counts. Monotone in `mightsee`.
+    fn capped(&self, mightsee: u64, portals: usize, clusters: usize) -> u64 {
+        let n = portals.max(1) as f64;
+        let predicted = self.scale * (mightsee as f64).powf(self.mightsee) / n.powf(self.portals);
+        let targets = n / clusters.max(1) as f64;
+        let cap = clusters as f64 * (targets / CAP_TARGETS).powf(-CAP_TARGETS_EXPONENT);
+        // `as` saturates: a huge prediction or cap stays finite.
+        (predicted.ceil().min(cap.floor()) as u64).saturating_add(1)
+    }
 }
 
 /// Targets scanned per frame at which [`scan_factor`] doubles a chain's price.
@@ -126,16 +137,20 @@ pub fn flow_seconds(work: u64, targets: f64, base_seconds: f64, base_tests: u64)
 }
 
 /// A portal's share of the flow's progress ([`progress_steps`]): its chains by the shape model
-/// ([`PROGRESS_CHAINS_SCALE`] × `m`^[`PROGRESS_MIGHTSEE_EXPONENT`] / `n`^0.6, capped as in
-/// [`chains`], for a map of `portals` one-way portals and `clusters` clusters) to the power
-/// [`PROGRESS_EXPONENT`], in 1/[`PROGRESS_UNIT`] steps. Monotone in `mightsee`; equal for
-/// portals whose chains reach the clusters' cap, as on a map merged into a few clusters, whose
-/// early flows cost as much as its late ones.
+/// ([`PROGRESS_CHAINS_SCALE`] × `m`^[`PROGRESS_MIGHTSEE_EXPONENT`] /
+/// `n`^[`PROGRESS_PORTALS_EXPONENT`], capped as in [`chains`], for a map of `portals` one-way
+/// portals and `clusters` clusters) to the power [`PROGRESS_EXPONENT`], in 1/[`PROGRESS_UNIT`]
+/// steps. Monotone in `mightsee`; equal for portals whose chains reach the clusters' cap, as on
+/// a map merged into a few clusters, whose early flows cost as much as its late ones.
 pub fn progress_weight(mightsee: u64, portals: usize, clusters: usize) -> u64 {
-    let n = portals.max(1) as f64;
-    let shape = PROGRESS_CHAINS_SCALE * (mightsee as f64).powf(PROGRESS_MIGHTSEE_EXPONENT) / n.powf(0.6);
+    let shape = Model {
+        scale: PROGRESS_CHAINS_SCALE,
+        mightsee: PROGRESS_MIGHTSEE_EXPONENT,
+        portals: PROGRESS_PORTALS_EXPONENT,
+    };
+    let chains = shape.capped(mightsee, portals, clusters) as f64;
     // `as` saturates: a huge weight stays finite.
-    ((capped(shape, portals, clusters) as f64).powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
+    (chains.powf(PROGRESS_EXPONENT) * PROGRESS_UNIT).round() as u64
 }
 
 /// The progress weights' model of a portal's chains ([`progress_weight`]), the first estimate's
@@ -148,6 +163,10 @@ pub const PROGRESS_CHAINS_SCALE: f64 = 0.0163;
 
 /// How the progress weights' chains grow with `mightsee` ([`PROGRESS_CHAINS_SCALE`]).
 pub const PROGRESS_MIGHTSEE_EXPONENT: f64 = 2.2;
+
+/// How the progress weights' chains shrink with the map's one-way portals
+/// ([`PROGRESS_CHAINS_SCALE`]).
+pub const PROGRESS_PORTALS_EXPONENT: f64 = 0.6;
 
 /// How a portal's progress weight grows with its chains by the shape model
 /// ([`progress_weight`]): within one map a flow's time grows more slowly than its chains. Per-flow
